@@ -1,0 +1,125 @@
+"""Kinematics engine throughput: vectorised batch, scalar per-message path, generic per-sample solve.
+
+Prints figures only; targets (one core): mechanism 1 >= 10 M samples/s with all outputs,
+mechanism 2 >= 2 M samples/s, >= 500x a per-sample generic root-finder solve, scalar <= 5 us.
+Run with `make bench`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+import tracemalloc
+
+import numpy as np
+from scipy.optimize import fsolve
+
+from fishtail_kinematics.mechanisms import (
+    OscillatoryGeometry,
+    OscillatoryTail,
+    UndulatoryGeometry,
+    UndulatoryTail,
+)
+
+BATCH = 1_000_000
+SPEED_RAD_S = 4.0
+
+
+def best_of(function, repeats: int) -> float:
+    """Shortest wall time of ``repeats`` calls, in seconds (the least disturbed run)."""
+    best = math.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def generic_solve_oscillatory(g: OscillatoryGeometry, phi: float, guess: np.ndarray) -> np.ndarray:
+    """theta1, theta2 from the report's two loop equations with a generic solver (fsolve)."""
+    op = g.ring_radius_m * math.cos(phi + g.phase_rad)
+
+    def loop(x):
+        theta1, theta2 = x
+        return (
+            g.crank_link_m * math.cos(theta1) - g.rocker_link_m * math.cos(theta2) - g.pivot_offset_m,
+            g.crank_link_m * math.sin(theta1) + g.rocker_link_m * math.sin(theta2) - op,
+        )
+
+    return fsolve(loop, guess, xtol=1e-13)
+
+
+def generic_solve_undulatory(
+    g: UndulatoryGeometry, theta3: float, guess: np.ndarray
+) -> np.ndarray:
+    """theta4, AU, AS, theta5 from the spec's four loop equations with fsolve."""
+    su, sw, av, vw = g.pin_offset_m, g.swing_arm_m, g.slotted_link_m, g.fin_joint_offset_m
+
+    def loop(x):
+        theta4, au, a_s, theta5 = x
+        return (
+            au * math.cos(theta4) - su * math.cos(theta3) - a_s,
+            au * math.sin(theta4) - su * math.sin(theta3),
+            a_s + sw * math.cos(theta3) - av * math.cos(theta4) - vw * math.cos(theta5),
+            sw * math.sin(theta3) - av * math.sin(theta4) - vw * math.sin(theta5),
+        )
+
+    return fsolve(loop, guess, xtol=1e-13)
+
+
+def main() -> None:
+    """Print the figures."""
+    try:
+        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+        pinned = "pinned to one core"
+    except (AttributeError, OSError):
+        pinned = "not pinned"
+    print(f"kinematics benchmark ({pinned}), batch of {BATCH:,} carrier angles")
+    phi = np.linspace(0.0, 40.0 * math.pi, BATCH)
+    oscillatory = OscillatoryTail(OscillatoryGeometry())
+    undulatory = UndulatoryTail(UndulatoryGeometry())
+    generic_samples = 2000
+    generic_phi = np.linspace(0.0, 2.0 * math.pi, generic_samples)
+    for name, tail in (("mechanism 1", oscillatory), ("mechanism 2", undulatory)):
+        tail.solve(phi[:1000], SPEED_RAD_S)
+        batch_s = best_of(lambda tail=tail: tail.solve(phi, SPEED_RAD_S), 7)
+        tracemalloc.start()
+        tail.solve(phi, SPEED_RAD_S)
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        calls = 50_000
+        scalar_s = best_of(
+            lambda tail=tail: [tail.solve(0.1 * k, SPEED_RAD_S) for k in range(calls)], 3
+        )
+        if tail is oscillatory:
+            guess = np.array([-1.0, 2.5])
+
+            def generic(guess=guess):
+                x = guess
+                for value in generic_phi:
+                    x = generic_solve_oscillatory(oscillatory.geometry, float(value), x)
+
+        else:
+            theta3 = oscillatory.solve(generic_phi).theta3
+            start = undulatory.solve(0.0)
+            guess = np.array([start.theta4, start.pin_u_distance, start.slider_a_distance, start.theta5])
+
+            def generic(guess=guess, theta3=theta3):
+                x = guess
+                for value in theta3:
+                    x = generic_solve_undulatory(undulatory.geometry, float(value), x)
+
+        generic_s = best_of(generic, 2) / generic_samples
+        rate = BATCH / batch_s
+        print(
+            f"{name}: vectorised {rate / 1e6:6.2f} M samples/s (all outputs, "
+            f"peak {peak / 2**20:.0f} MiB for the batch, {peak / BATCH:.0f} B/sample); "
+            f"scalar {scalar_s / calls * 1e6:.2f} us/call; "
+            f"generic fsolve {generic_s * 1e6:.1f} us/sample (positions only); "
+            f"ratio {generic_s * rate:,.0f}x"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,33 @@
+"""Named errors of the kinematics engine.
+
+Each error says which condition failed and by how much, so that the edge (a parameter callback, the
+CLI, a diagnostic) can pass the message on unchanged.
+"""
+
+
+class FishtailKinematicsError(ValueError):
+    """Base class of every error the engine raises for bad input."""
+
+
+class InvalidLengthError(FishtailKinematicsError):
+    """A length or angle parameter is non-finite, or a length is not positive."""
+
+
+class AssemblyError(FishtailKinematicsError):
+    """The linkage cannot be assembled over the whole stroke of the Cardan point."""
+
+
+class PinOffsetError(FishtailKinematicsError):
+    """The pin U of the undulatory mechanism lies outside 0 < SU < SW - VW."""
+
+
+class SolverError(FishtailKinematicsError):
+    """The undulatory loop did not close to tolerance (a geometry at or near a toggle pose)."""
+
+
+class DesignError(FishtailKinematicsError):
+    """A design helper has no answer for the given geometry."""
+
+
+class ParameterError(FishtailKinematicsError):
+    """A parameter is unknown, of the wrong type or outside its documented range."""
