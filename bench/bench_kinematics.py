@@ -1,4 +1,4 @@
-"""Kinematics engine throughput: vectorised batch, scalar per-message path, generic per-sample solve.
+"""Kinematics engine throughput: vectorised batch, scalar path, generic per-sample solve.
 
 Prints figures only; targets (one core): mechanism 1 >= 10 M samples/s with all outputs,
 mechanism 2 >= 2 M samples/s, >= 500x a per-sample generic root-finder solve, scalar <= 5 us.
@@ -43,16 +43,16 @@ def generic_solve_oscillatory(g: OscillatoryGeometry, phi: float, guess: np.ndar
     def loop(x):
         theta1, theta2 = x
         return (
-            g.crank_link_m * math.cos(theta1) - g.rocker_link_m * math.cos(theta2) - g.pivot_offset_m,
+            g.crank_link_m * math.cos(theta1)
+            - g.rocker_link_m * math.cos(theta2)
+            - g.pivot_offset_m,
             g.crank_link_m * math.sin(theta1) + g.rocker_link_m * math.sin(theta2) - op,
         )
 
     return fsolve(loop, guess, xtol=1e-13)
 
 
-def generic_solve_undulatory(
-    g: UndulatoryGeometry, theta3: float, guess: np.ndarray
-) -> np.ndarray:
+def generic_solve_undulatory(g: UndulatoryGeometry, theta3: float, guess: np.ndarray) -> np.ndarray:
     """theta4, AU, AS, theta5 from the spec's four loop equations with fsolve."""
     su, sw, av, vw = g.pin_offset_m, g.swing_arm_m, g.slotted_link_m, g.fin_joint_offset_m
 
@@ -90,7 +90,8 @@ def main() -> None:
         tracemalloc.stop()
         calls = 50_000
         scalar_s = best_of(
-            lambda tail=tail: [tail.solve(0.1 * k, SPEED_RAD_S) for k in range(calls)], 3
+            lambda tail=tail, calls=calls: [tail.solve(0.1 * k, SPEED_RAD_S) for k in range(calls)],
+            3,
         )
         if tail is oscillatory:
             guess = np.array([-1.0, 2.5])
@@ -103,7 +104,9 @@ def main() -> None:
         else:
             theta3 = oscillatory.solve(generic_phi).theta3
             start = undulatory.solve(0.0)
-            guess = np.array([start.theta4, start.pin_u_distance, start.slider_a_distance, start.theta5])
+            guess = np.array(
+                [start.theta4, start.pin_u_distance, start.slider_a_distance, start.theta5]
+            )
 
             def generic(guess=guess, theta3=theta3):
                 x = guess

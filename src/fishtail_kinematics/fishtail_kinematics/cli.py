@@ -32,7 +32,16 @@ from fishtail_kinematics.parameters import (
 PROGRAM = "fishtail-kinematics"
 REPORT_SPEED_RAD_S = 4.0
 
-OSCILLATORY_COLUMNS = ("motor_angle_rad", "OP", "theta1", "theta2", "theta3", "theta3_dot", "Tx", "Ty")
+OSCILLATORY_COLUMNS = (
+    "motor_angle_rad",
+    "OP",
+    "theta1",
+    "theta2",
+    "theta3",
+    "theta3_dot",
+    "Tx",
+    "Ty",
+)
 UNDULATORY_COLUMNS = (*OSCILLATORY_COLUMNS, "theta4", "AU", "AS", "theta5", "theta5_dot")
 _FIELD_OF_COLUMN = {
     "motor_angle_rad": "motor_angle",
@@ -81,7 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and for the README's usage text)."""
     geometry = argparse.ArgumentParser(add_help=False)
     group = geometry.add_argument_group("geometry (SI units; flags override --config)")
-    group.add_argument("--config", type=Path, help="ROS 2 parameter file, e.g. config/oscillatory.yaml")
+    group.add_argument(
+        "--config", type=Path, help="ROS 2 parameter file, e.g. config/oscillatory.yaml"
+    )
     group.add_argument("--mechanism", choices=MECHANISMS)
     for spec in GEOMETRY_PARAMETERS:
         group.add_argument(

@@ -23,7 +23,9 @@ from fishtail_kinematics.mechanisms import (
 )
 
 
-def symmetric_rocker_link(ring_radius_m: float, crank_link_m: float, pivot_offset_m: float) -> float:
+def symmetric_rocker_link(
+    ring_radius_m: float, crank_link_m: float, pivot_offset_m: float
+) -> float:
     """RS that makes the swing symmetric about the mid-stroke pose: RS^2 = PR^2 + OS sqrt(OS^2+R^2).
 
     The closed form is the symmetry condition only while theta2 is monotone over the stroke; for
@@ -141,10 +143,12 @@ def design_summary(geometry: OscillatoryGeometry | UndulatoryGeometry) -> dict[s
     summary["theta2_max_rad"] = drive.theta2_max
     summary["theta2_monotone"] = drive.monotone
     theta2_mid_stroke = drive.theta2_at(0.0)
-    summary["swing_asymmetry_rad"] = (
-        (drive.theta2_max - theta2_mid_stroke) - (theta2_mid_stroke - drive.theta2_min)
+    summary["swing_asymmetry_rad"] = (drive.theta2_max - theta2_mid_stroke) - (
+        theta2_mid_stroke - drive.theta2_min
     )
-    low, high = assembly_interval(geometry.ring_radius_m, geometry.crank_link_m, geometry.rocker_link_m)
+    low, high = assembly_interval(
+        geometry.ring_radius_m, geometry.crank_link_m, geometry.rocker_link_m
+    )
     summary["assembly_pivot_offset_min_m"] = low
     summary["assembly_pivot_offset_max_m"] = high
     if isinstance(geometry, UndulatoryGeometry):

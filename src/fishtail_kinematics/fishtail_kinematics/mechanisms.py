@@ -1,10 +1,11 @@
 """The tail linkages: a Cardan (Tusi) couple drives a slider-rocker, optionally a second tail joint.
 
-Conventions (see ``docs/kinematics.md``): O = (0, 0) is the ring-gear centre, +x points back along the
-body towards the tail, +y to the left, angles counter-clockwise, SI units.
+Conventions (see ``docs/kinematics.md``): O = (0, 0) is the ring-gear centre, +x points back
+along the body towards the tail, +y to the left, angles counter-clockwise, SI units.
 
-* Mechanism 1 (oscillatory): the Cardan point P = (0, OP), OP = R cos(phi + psi), drives the link PR;
-  RS turns about the body pivot S = (OS, 0) and carries the tail ST, so theta3 = theta2 - mid-swing.
+* Mechanism 1 (oscillatory): the Cardan point P = (0, OP), OP = R cos(phi + psi), drives the
+  link PR; RS turns about the body pivot S = (OS, 0) and carries the tail ST, so
+  theta3 = theta2 - mid-swing.
 * Mechanism 2 (undulatory): SW turns with RS; the pin U on SW rides in the slot of AV, whose end A
   slides along the body axis; VT is hinged to AV at V and to SW at W.
 
@@ -176,8 +177,9 @@ def assembly_violations(
 
     >>> assembly_violations(0.1, 0.1, 0.234, 0.2)
     []
-    >>> assembly_violations(0.1, 0.1, 0.05, 0.2)[0]
-    'OS^2 + R^2 < (RS + PR)^2 fails: sqrt(OS^2 + R^2) = 0.223607 m exceeds RS + PR = 0.150000 m by 0.073607 m'
+    >>> print(assembly_violations(0.1, 0.1, 0.05, 0.2)[0])  # doctest: +NORMALIZE_WHITESPACE
+    OS^2 + R^2 < (RS + PR)^2 fails: sqrt(OS^2 + R^2) = 0.223607 m exceeds
+    RS + PR = 0.150000 m by 0.073607 m
     """
     problems = []
     link_difference = abs(rocker_link_m - crank_link_m)
@@ -567,7 +569,9 @@ class UndulatoryTail:
         )  # fmt: skip
 
 
-def make_tail(geometry: OscillatoryGeometry | UndulatoryGeometry) -> OscillatoryTail | UndulatoryTail:
+def make_tail(
+    geometry: OscillatoryGeometry | UndulatoryGeometry,
+) -> OscillatoryTail | UndulatoryTail:
     """The engine for a geometry of either mechanism."""
     if isinstance(geometry, UndulatoryGeometry):
         return UndulatoryTail(geometry)

@@ -52,7 +52,9 @@ def _spec(name: str, symbol: str, description: str, mechanisms: tuple[str, ...])
     source = OscillatoryGeometry if OSCILLATORY in mechanisms else UndulatoryGeometry
     default = next(f.default for f in dataclasses.fields(source) if f.name == name)
     if name == "phase_rad":
-        return ParameterSpec(name, default, -math.pi, math.pi, "rad", symbol, description, mechanisms)
+        return ParameterSpec(
+            name, default, -math.pi, math.pi, "rad", symbol, description, mechanisms
+        )
     return ParameterSpec(
         name, default, _MIN_LENGTH_M, _MAX_LENGTH_M, "m", symbol, description, mechanisms
     )

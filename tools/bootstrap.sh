@@ -1,0 +1,160 @@
+#!/usr/bin/env bash
+# Set up the fishtail workspace from a fresh clone: .venv with the pinned ROS 2 Jazzy wheels, the
+# wheel CMake path fix, and `colcon build --symlink-install`. Idempotent; a second run with
+# nothing changed takes about a second (stamps keyed on hashes of what each step depends on).
+#
+# Usage: tools/bootstrap.sh [--force-build]
+#   --force-build   run colcon build even if the sources' build stamp is current
+# Environment: FISHTAIL_PYTHON  interpreter to create .venv with (must be CPython 3.11)
+#
+# Output is one line per step with its elapsed time; a failing step prints the tail of its log.
+# Logs: log/bootstrap/<step>.log (colcon's own logs: log/latest_build).
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$ROOT"
+VENV=$ROOT/.venv
+STAMPS=$VENV/.fishtail-stamps          # dies with the venv, so rm -rf .venv resets everything
+BUILD_STAMP=$ROOT/install/.fishtail-build-stamp
+LOG_DIR=$ROOT/log/bootstrap
+
+force_build=0
+for arg in "$@"; do
+  case $arg in
+    --force-build) force_build=1 ;;
+    -h|--help) sed -n '2,11p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "bootstrap: unknown argument: $arg" >&2; exit 2 ;;
+  esac
+done
+
+# A parent Python process of another venv may have left the ros-wheels-bootstrapper guard set
+# with its own LD_LIBRARY_PATH: let this venv's interpreters compute their own.
+unset _ROS_WHEELS_BOOTSTRAP_COMPLETE
+export PIP_NO_INPUT=1 PIP_DISABLE_PIP_VERSION_CHECK=1 PIP_PROGRESS_BAR=off
+
+mkdir -p "$LOG_DIR"
+exec 9>"$LOG_DIR/.lock"
+if ! flock -n 9; then
+  echo "bootstrap: waiting for another bootstrap of this workspace to finish" >&2
+  flock 9
+fi
+
+now() { date +%s.%N; }
+elapsed() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.1f", b - a }'; }
+T_START=$(now)
+
+# step NAME CMD... : run CMD with its output in log/bootstrap/NAME.log; report time or failure.
+step() {
+  local name=$1 t0 rc=0
+  shift
+  t0=$(now)
+  "$@" >"$LOG_DIR/$name.log" 2>&1 || rc=$?
+  if ((rc != 0)); then
+    echo "bootstrap: $name FAILED (exit $rc) after $(elapsed "$t0") s; last lines of" \
+      "log/bootstrap/$name.log:" >&2
+    tail -n 80 "$LOG_DIR/$name.log" >&2
+    if [ "$name" = colcon ]; then
+      echo "bootstrap: full package output: log/latest_build/<package>/stdout_stderr.log" >&2
+    fi
+    exit "$rc"
+  fi
+  printf 'bootstrap: %-9s %6s s\n' "$name" "$(elapsed "$t0")"
+}
+skip() { printf 'bootstrap: %-9s %8s\n' "$1" "${2:-current}"; }
+
+hash_of() { cat "$@" | sha256sum | cut -c1-32; }
+
+# --- 1. venv ------------------------------------------------------------------------------------
+venv_ok() {
+  [ -x "$VENV/bin/python" ] &&
+    "$VENV/bin/python" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' 2>/dev/null
+}
+
+find_python() {
+  local c
+  for c in ${FISHTAIL_PYTHON:-} python3.11 python3; do
+    if command -v "$c" >/dev/null 2>&1 &&
+      "$c" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' 2>/dev/null; then
+      command -v "$c"
+      return 0
+    fi
+  done
+  echo "bootstrap: no CPython 3.11 found (python3.11, python3); the ROS 2 Jazzy wheels are" \
+    "cp311-only. Set FISHTAIL_PYTHON=/path/to/python3.11." >&2
+  return 1
+}
+
+# (steps run under `||`, where set -e is off: chain with &&)
+make_venv() {
+  rm -rf "$VENV" &&
+    "$1" -m venv "$VENV" &&
+    "$VENV/bin/python" -m pip install --upgrade pip
+}
+
+if venv_ok; then
+  skip venv
+else
+  [ -e "$VENV" ] && echo "bootstrap: .venv is unusable (moved, or not Python 3.11); recreating" >&2
+  py=$(find_python)
+  step venv make_venv "$py"
+fi
+# colcon must not crawl the venv (share/*/package.xml of every ROS wheel lives there).
+touch "$VENV/COLCON_IGNORE"
+mkdir -p "$STAMPS"
+
+# --- 2. pinned wheels, then the CMake path fix (every install restores the wheels' files) -------
+pip_key=$(hash_of requirements.txt tools/fix_wheel_cmake_paths.py)
+if [ "$(cat "$STAMPS/pip" 2>/dev/null)" = "$pip_key" ]; then
+  skip pip
+  skip cmakefix
+else
+  rm -f "$STAMPS/pip" "$BUILD_STAMP"
+  step pip "$VENV/bin/python" -m pip install -r requirements.txt
+  step cmakefix "$VENV/bin/python" tools/fix_wheel_cmake_paths.py
+  echo "$pip_key" >"$STAMPS/pip"
+fi
+
+# --- 3. colcon build -----------------------------------------------------------------------------
+# The build stamp hashes what a --symlink-install build depends on: the wheel set, and the content
+# of every file under src/ except Python files, which --symlink-install links (the package
+# directories themselves are symlinked, so new modules need no build either). Of those, setup.py
+# counts by content and __init__.py by path (a new top-level package needs a build).
+build_key() {
+  {
+    echo "$pip_key"
+    find src -type f ! -path '*/__pycache__/*' ! -name '*.pyc' 2>/dev/null | LC_ALL=C sort |
+      while IFS= read -r f; do
+        case $f in
+          */setup.py) echo "$f $(sha256sum <"$f" | cut -c1-32)" ;;
+          */__init__.py) echo "$f" ;;  # a new top-level Python package needs a build
+          *.py) ;;                     # modules and tests: symlinked, never need one
+          *) echo "$f $(sha256sum <"$f" | cut -c1-32)" ;;
+        esac
+      done
+  } | sha256sum | cut -c1-32
+}
+
+colcon_build() {
+  export VIRTUAL_ENV=$VENV
+  export PATH=$VENV/bin:$PATH
+  # The wheels never set AMENT_PREFIX_PATH; without the venv on it, rosidl's find_package()
+  # fails (No 'rosidl_typesupport_c' found).
+  export AMENT_PREFIX_PATH=$VENV${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}
+  # --base-paths src: colcon must not crawl .venv, build/ or install/.
+  colcon build --symlink-install --base-paths src \
+    --event-handlers console_direct- \
+    --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF
+}
+
+key=$(build_key)
+if ((force_build == 0)) && [ -f install/setup.bash ] && [ -d build ] &&
+  [ "$(cat "$BUILD_STAMP" 2>/dev/null)" = "$key" ]; then
+  skip colcon
+else
+  rm -f "$BUILD_STAMP"
+  step colcon colcon_build
+  echo "$key" >"$BUILD_STAMP"
+fi
+
+printf 'bootstrap: %-9s %6s s   (source tools/env.sh to use the workspace)\n' total \
+  "$(elapsed "$T_START")"
