@@ -168,6 +168,17 @@ class UndulatoryState(NamedTuple):
     theta5_dot: float | np.ndarray
 
 
+def _zero_dimensional_safe(solver, motor_angle, motor_velocity):
+    # The array paths work in place (out=...), which numpy refuses for 0-d results: solve those
+    # as one-element arrays and hand back 0-d arrays.
+    phi = np.asarray(motor_angle, float)
+    phi_dot = np.asarray(motor_velocity, float)
+    if phi.ndim or phi_dot.ndim:
+        return solver(phi, phi_dot)
+    state = solver(phi.reshape(1), phi_dot.reshape(1))
+    return type(state)(*(np.asarray(value).reshape(()) for value in state))
+
+
 def assembly_violations(
     ring_radius_m: float, crank_link_m: float, rocker_link_m: float, pivot_offset_m: float
 ) -> list[str]:
@@ -241,12 +252,14 @@ class OscillatoryTail:
 
     def _stationary_slider_positions(self) -> list[float]:
         # d(theta2)/d(OP) vanishes where sin(theta1) = 0, i.e. R lies level with P:
-        # cos(theta2) = (PR - OS)/RS and OP = RS sin(theta2). Only points inside the stroke matter.
+        # cos(theta2) = (PR - OS)/RS and OP = +-RS sin(theta2). With R = P + (PR, 0) the branch
+        # condition (S - P) x (R - P) = PR OP > 0 keeps only OP > 0 (theta1 = pi would need
+        # RS >= OS + PR, which assembly excludes). Only points strictly inside the stroke matter.
         offset_sq = self._RS**2 - (self._OS - self._PR) ** 2
-        if offset_sq < 0.0:
+        if offset_sq <= 0.0:
             return []
         op = math.sqrt(offset_sq)
-        return [p for p in (-op, op) if abs(p) <= self._R and p not in (-self._R, self._R)]
+        return [op] if op < self._R else []
 
     def theta2_at(self, slider_position: float) -> float:
         """theta2 for a Cardan-point position OP in metres (assembly branch of the spec)."""
@@ -263,7 +276,7 @@ class OscillatoryTail:
         """
         if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
             return self._solve_scalar(float(motor_angle), float(motor_velocity))
-        return self._solve_array(np.asarray(motor_angle, float), np.asarray(motor_velocity, float))
+        return _zero_dimensional_safe(self._solve_array, motor_angle, motor_velocity)
 
     def _solve_scalar(self, phi: float, phi_dot: float) -> OscillatoryState:
         carrier = phi + self._psi
@@ -469,9 +482,13 @@ class UndulatoryTail:
         """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s]."""
         if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
             return self._solve_scalar(self.drive.solve(float(motor_angle), float(motor_velocity)))
-        phi = np.asarray(motor_angle, float)
-        phi_dot = np.asarray(motor_velocity, float)
-        return self._solve_array(*self.drive._solve_array_with_tail_trig(phi, phi_dot))
+        return _zero_dimensional_safe(
+            lambda phi, phi_dot: self._solve_array(
+                *self.drive._solve_array_with_tail_trig(phi, phi_dot)
+            ),
+            motor_angle,
+            motor_velocity,
+        )
 
     def _solve_scalar(self, d: OscillatoryState) -> UndulatoryState:
         theta3 = d.theta3

@@ -137,6 +137,8 @@ def load_parameter_file(path: str | Path) -> dict[str, object]:
             document = yaml.safe_load(stream)
     except OSError as error:
         raise ParameterError(f"cannot read parameter file {path}: {error.strerror}") from None
+    except UnicodeDecodeError as error:
+        raise ParameterError(f"{path} is not UTF-8 text: {error.reason}") from None
     except yaml.YAMLError as error:
         raise ParameterError(f"{path} is not valid YAML: {error}") from None
     if not isinstance(document, dict):
