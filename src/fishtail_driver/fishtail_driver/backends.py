@@ -1,0 +1,99 @@
+"""Motor backends behind one small interface: start, set speed, read the encoder, stop, close.
+
+The node owns the timing and the watchdog; a backend only talks to its motor. This module does not
+import rclpy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Protocol
+
+from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
+
+
+@dataclasses.dataclass(frozen=True)
+class EncoderSample:
+    """Carrier angle (unwrapped, rad) and speed (rad/s) at a monotonic time (s)."""
+
+    monotonic_s: float
+    angle_rad: float
+    velocity_rad_s: float
+
+
+class MotorBackend(Protocol):
+    """What the driver node needs of a motor."""
+
+    name: str
+
+    def start(self) -> None:
+        """Connect; raise an exception naming the cause if the motor cannot be reached."""
+
+    def set_speed(self, speed_rad_s: float) -> None:
+        """Command a carrier speed (>= 0, already validated by the node)."""
+
+    def read(self) -> EncoderSample | None:
+        """The latest encoder sample, or None when none is available right now."""
+
+    def stop(self) -> None:
+        """Command the motor to stop (speed 0). Must not raise."""
+
+    def close(self) -> None:
+        """Release the motor's resources. Must not raise."""
+
+    def status(self) -> tuple[int, str, dict[str, str]]:
+        """Diagnostic level (0 OK, 1 WARN, 2 ERROR), message and key values."""
+
+
+class SimBackend:
+    """The simulated DC motor, advanced to the wall (monotonic) clock at every read."""
+
+    name = "sim"
+
+    def __init__(self, parameters: MotorParameters, clock=time.monotonic) -> None:
+        """Create the model; ``clock`` is injectable for tests."""
+        self.motor = SimulatedMotor(parameters)
+        self._clock = clock
+        self._last_s: float | None = None
+
+    def start(self) -> None:
+        """Nothing to connect to."""
+        self._last_s = self._clock()
+
+    def _advance(self) -> float:
+        now = self._clock()
+        if self._last_s is not None:
+            self.motor.advance(now - self._last_s)
+        self._last_s = now
+        return now
+
+    def set_speed(self, speed_rad_s: float) -> None:
+        """Bring the model up to now, then change its command."""
+        self._advance()
+        self.motor.command(speed_rad_s)
+
+    def read(self) -> EncoderSample:
+        """Quantised angle as the encoder reports it, velocity from the model."""
+        now = self._advance()
+        return EncoderSample(now, self.motor.measured_angle_rad(), self.motor.speed_rad_s)
+
+    def stop(self) -> None:
+        """Command zero speed."""
+        self.set_speed(0.0)
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+    def status(self) -> tuple[int, str, dict[str, str]]:
+        """Always OK: the model cannot fail."""
+        motor = self.motor
+        return (
+            0,
+            "simulated motor running",
+            {
+                "target_speed_rad_s": f"{motor.target_rad_s:.4f}",
+                "speed_rad_s": f"{motor.speed_rad_s:.4f}",
+                "encoder_counts": str(motor.encoder_counts()),
+            },
+        )

@@ -1,0 +1,99 @@
+"""A simulated one-way DC gear motor with a quadrature encoder on the motor shaft.
+
+The carrier (output shaft, after the gearbox) speed follows the command with a first-order lag of
+time constant ``time_constant_s`` and is limited to ``max_speed_rad_s``. Between two calls of
+:meth:`SimulatedMotor.advance` the command is constant, so the model integrates exactly (no Euler
+error, whatever the step). The encoder counts ``counts_per_revolution`` per motor-shaft turn, the
+carrier turns once per ``gear_ratio`` motor turns, so the measured carrier angle is quantised to
+2 pi / (counts_per_revolution * gear_ratio). Optional speed noise (a seeded Gaussian load
+disturbance) never drives the one-way motor backwards.
+
+>>> motor = SimulatedMotor(MotorParameters(time_constant_s=0.1, counts_per_revolution=1000))
+>>> motor.command(4.0)
+>>> for _ in range(100):
+...     motor.advance(0.01)
+>>> round(motor.speed_rad_s, 3), round(motor.measured_angle_rad(), 3)
+(4.0, 3.594)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import random
+
+
+@dataclasses.dataclass(frozen=True)
+class MotorParameters:
+    """Simulated motor and encoder; SI units."""
+
+    time_constant_s: float = 0.15
+    max_speed_rad_s: float = 20.0
+    counts_per_revolution: int = 2048
+    gear_ratio: float = 1.0
+    speed_noise_rad_s: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        """Reject values that would make the model meaningless, with the reason."""
+        checks = (
+            (self.time_constant_s > 0.0 and math.isfinite(self.time_constant_s),
+             f"time_constant_s must be > 0, got {self.time_constant_s!r}"),
+            (self.max_speed_rad_s > 0.0 and math.isfinite(self.max_speed_rad_s),
+             f"max_speed_rad_s must be > 0, got {self.max_speed_rad_s!r}"),
+            (isinstance(self.counts_per_revolution, int) and self.counts_per_revolution > 0,
+             f"counts_per_revolution must be an integer > 0, got {self.counts_per_revolution!r}"),
+            (self.gear_ratio > 0.0 and math.isfinite(self.gear_ratio),
+             f"gear_ratio must be > 0, got {self.gear_ratio!r}"),
+            (self.speed_noise_rad_s >= 0.0 and math.isfinite(self.speed_noise_rad_s),
+             f"speed_noise_rad_s must be >= 0, got {self.speed_noise_rad_s!r}"),
+        )  # fmt: skip
+        for ok, reason in checks:
+            if not ok:
+                raise ValueError(reason)
+
+    @property
+    def carrier_angle_per_count_rad(self) -> float:
+        """Resolution of the measured carrier angle."""
+        return 2.0 * math.pi / (self.counts_per_revolution * self.gear_ratio)
+
+
+class SimulatedMotor:
+    """State of the simulated motor: the carrier angle (unwrapped) and speed."""
+
+    def __init__(self, parameters: MotorParameters) -> None:
+        """Start at rest at angle 0."""
+        self.parameters = parameters
+        self.angle_rad = 0.0
+        self.speed_rad_s = 0.0
+        self.target_rad_s = 0.0
+        self._random = random.Random(parameters.seed)
+
+    def command(self, speed_rad_s: float) -> None:
+        """Set the carrier speed target; clamped to [0, max_speed_rad_s] (the motor is one-way)."""
+        if not math.isfinite(speed_rad_s):
+            raise ValueError(f"speed command must be finite, got {speed_rad_s!r}")
+        self.target_rad_s = min(max(speed_rad_s, 0.0), self.parameters.max_speed_rad_s)
+
+    def advance(self, dt_s: float) -> None:
+        """Move the model on by ``dt_s`` seconds with the current command held constant."""
+        if not dt_s > 0.0:
+            return
+        p = self.parameters
+        decay = math.exp(-dt_s / p.time_constant_s)
+        offset = self.speed_rad_s - self.target_rad_s
+        self.angle_rad += self.target_rad_s * dt_s + offset * p.time_constant_s * (1.0 - decay)
+        self.speed_rad_s = self.target_rad_s + offset * decay
+        if p.speed_noise_rad_s > 0.0:
+            noisy = self.speed_rad_s + self._random.gauss(0.0, p.speed_noise_rad_s)
+            self.speed_rad_s = min(max(noisy, 0.0), p.max_speed_rad_s)
+
+    def encoder_counts(self) -> int:
+        """Encoder count on the motor shaft (floor, as a counter sees it)."""
+        p = self.parameters
+        motor_turns = self.angle_rad * p.gear_ratio / (2.0 * math.pi)
+        return math.floor(motor_turns * p.counts_per_revolution)
+
+    def measured_angle_rad(self) -> float:
+        """The carrier angle as the encoder reports it (quantised)."""
+        return self.encoder_counts() * self.parameters.carrier_angle_per_count_rad

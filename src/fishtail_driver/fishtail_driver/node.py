@@ -1,0 +1,284 @@
+"""Driver node: commands the carrier speed and publishes the encoder angle.
+
+Topics (relative, so a namespace moves the whole suite):
+  sub ``motor/cmd_speed``    std_msgs/Float64, carrier speed [rad/s], >= 0 (one-way motor)
+  pub ``motor/joint_state``  sensor_msgs/JointState, unwrapped carrier angle [rad] and speed
+                             [rad/s], sensor-data QoS, at ``publish_rate_hz``
+  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``
+
+A watchdog stops the motor when no command arrives for ``cmd_timeout_sec``; SIGINT and SIGTERM
+stop the motor before the node exits.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import sys
+import threading
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from fishtail_driver.backends import SimBackend
+from fishtail_driver.motor_model import MotorParameters
+
+BACKENDS = ("sim",)
+
+
+def _float_descriptor(text: str, low: float, high: float, read_only: bool = False):
+    return ParameterDescriptor(
+        description=text,
+        floating_point_range=[FloatingPointRange(from_value=low, to_value=high)],
+        read_only=read_only,
+    )
+
+
+class DriverNode(Node):
+    """Thin shell: parameters, command watchdog, publishing and diagnostics around a backend."""
+
+    def __init__(self) -> None:
+        """Declare parameters, start the backend and the timers."""
+        super().__init__("driver")
+        self.declare_parameter(
+            "backend", "sim",
+            ParameterDescriptor(description="motor backend: sim", read_only=True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "publish_rate_hz", 200.0,
+            _float_descriptor("encoder publish rate [Hz]", 1.0, 1000.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "cmd_timeout_sec", 0.5,
+            _float_descriptor("stop the motor when no command arrives for this long [s]; "
+                              "0 disables the watchdog", 0.0, 60.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "max_speed_rad_s", 20.0,
+            _float_descriptor("commands above this carrier speed are clamped [rad/s]", 0.1, 1000.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "joint_name", "carrier_joint",
+            ParameterDescriptor(description="name of the carrier joint in motor/joint_state",
+                                read_only=True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "diagnostics_period_sec", 1.0,
+            _float_descriptor("period of /diagnostics [s]", 0.1, 60.0, read_only=True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "encoder_counts_per_revolution", 2048,
+            ParameterDescriptor(
+                description="encoder counts per motor-shaft revolution",
+                integer_range=[IntegerRange(from_value=1, to_value=10_000_000)],
+                read_only=True,
+            ),
+        )  # fmt: skip
+        self.declare_parameter(
+            "gear_ratio", 1.0,
+            _float_descriptor("motor-shaft turns per carrier turn", 0.001, 10000.0, read_only=True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "sim_time_constant_s", 0.15,
+            _float_descriptor("sim: first-order speed time constant [s]", 0.001, 100.0, True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "sim_speed_noise_rad_s", 0.0,
+            _float_descriptor("sim: std of a Gaussian speed disturbance [rad/s]", 0.0, 100.0, True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "sim_seed", 0,
+            ParameterDescriptor(description="sim: noise seed", read_only=True),
+        )  # fmt: skip
+
+        backend_name = self.get_parameter("backend").value
+        if backend_name not in BACKENDS:
+            raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend_name!r}")
+        self.backend = SimBackend(
+            MotorParameters(
+                time_constant_s=self.get_parameter("sim_time_constant_s").value,
+                max_speed_rad_s=self.get_parameter("max_speed_rad_s").value,
+                counts_per_revolution=self.get_parameter("encoder_counts_per_revolution").value,
+                gear_ratio=self.get_parameter("gear_ratio").value,
+                speed_noise_rad_s=self.get_parameter("sim_speed_noise_rad_s").value,
+                seed=self.get_parameter("sim_seed").value,
+            )
+        )
+        self.backend.start()
+
+        self._lock = threading.Lock()
+        self.commanded_speed = 0.0
+        self.last_command_ns: int | None = None
+        self.watchdog_stops = 0
+        self.rejected_commands = 0
+        self.clamped_commands = 0
+        self.watchdog_tripped = False
+        self.cmd_timeout_sec = self.get_parameter("cmd_timeout_sec").value
+        self.max_speed = self.get_parameter("max_speed_rad_s").value
+
+        self.state_message = JointState()
+        self.state_message.name = [self.get_parameter("joint_name").value]
+        self.state_publisher = self.create_publisher(
+            JointState, "motor/joint_state", qos_profile_sensor_data
+        )
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_subscription(Float64, "motor/cmd_speed", self._on_command, 10)
+        self.publish_timer = self.create_timer(
+            1.0 / self.get_parameter("publish_rate_hz").value, self._on_publish_tick
+        )
+        self.create_timer(self.get_parameter("diagnostics_period_sec").value, self._on_diagnostics)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.get_logger().info(
+            f"driver up: backend {backend_name}, "
+            f"{self.get_parameter('publish_rate_hz').value:g} Hz, "
+            f"watchdog {self.cmd_timeout_sec:g} s"
+        )
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        # Ranges and read-only are enforced by the descriptors before this runs.
+        for parameter in parameters:
+            if parameter.name == "publish_rate_hz":
+                self.publish_timer.cancel()
+                self.destroy_timer(self.publish_timer)
+                self.publish_timer = self.create_timer(1.0 / parameter.value, self._on_publish_tick)
+            elif parameter.name == "cmd_timeout_sec":
+                self.cmd_timeout_sec = parameter.value
+            elif parameter.name == "max_speed_rad_s":
+                self.max_speed = parameter.value
+        return SetParametersResult(successful=True)
+
+    def _on_command(self, message: Float64) -> None:
+        speed = message.data
+        if not math.isfinite(speed) or speed < 0.0:
+            self.rejected_commands += 1
+            self.get_logger().warning(
+                f"refused speed command {speed!r} rad/s: the motor turns one way, "
+                "commands must be finite and >= 0",
+                throttle_duration_sec=1.0,
+            )
+            return
+        if speed > self.max_speed:
+            self.clamped_commands += 1
+            self.get_logger().warning(
+                f"speed command {speed:g} rad/s clamped to max_speed_rad_s = {self.max_speed:g}",
+                throttle_duration_sec=1.0,
+            )
+            speed = self.max_speed
+        with self._lock:
+            self.commanded_speed = speed
+            self.last_command_ns = self.get_clock().now().nanoseconds
+            if self.watchdog_tripped:
+                self.get_logger().info("commands resumed")
+            self.watchdog_tripped = False
+            self.backend.set_speed(speed)
+
+    def _check_watchdog(self) -> None:
+        if self.cmd_timeout_sec <= 0.0 or self.last_command_ns is None or self.watchdog_tripped:
+            return
+        age_s = (self.get_clock().now().nanoseconds - self.last_command_ns) * 1e-9
+        if age_s > self.cmd_timeout_sec and self.commanded_speed > 0.0:
+            with self._lock:
+                self.watchdog_tripped = True
+                self.watchdog_stops += 1
+                self.commanded_speed = 0.0
+                self.backend.stop()
+            self.get_logger().warning(
+                f"no speed command for {age_s:.2f} s (cmd_timeout_sec = {self.cmd_timeout_sec:g}):"
+                " motor stopped"
+            )
+
+    def _on_publish_tick(self) -> None:
+        self._check_watchdog()
+        sample = self.backend.read()
+        if sample is None:
+            return
+        message = self.state_message
+        message.header.stamp = self.get_clock().now().to_msg()
+        message.position = [sample.angle_rad]
+        message.velocity = [sample.velocity_rad_s]
+        self.state_publisher.publish(message)
+
+    def _on_diagnostics(self) -> None:
+        level, text, values = self.backend.status()
+        if self.watchdog_tripped and level == 0:
+            level, text = 1, f"no speed command for over {self.cmd_timeout_sec:g} s: motor stopped"
+        values = {
+            **values,
+            "backend": self.backend.name,
+            "commanded_speed_rad_s": f"{self.commanded_speed:.4f}",
+            "watchdog_stops": str(self.watchdog_stops),
+            "rejected_commands": str(self.rejected_commands),
+            "clamped_commands": str(self.clamped_commands),
+        }
+        self.publish_diagnostics(level, text, values)
+
+    def publish_diagnostics(self, level: int, text: str, values: dict[str, str]) -> None:
+        """Publish one DiagnosticStatus for the motor."""
+        status = DiagnosticStatus(
+            level=bytes([level]),
+            name=f"{self.get_fully_qualified_name()}: motor",
+            message=text,
+            hardware_id=self.backend.name,
+            values=[KeyValue(key=key, value=value) for key, value in values.items()],
+        )
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self.diagnostics_publisher.publish(array)
+
+    def shutdown(self) -> None:
+        """Stop the motor and release the backend; safe to call twice."""
+        with self._lock:
+            self.commanded_speed = 0.0
+            self.backend.stop()
+            self.backend.close()
+        self.get_logger().info("motor commanded to stop; driver exiting")
+
+
+def spin_until_signal(node: Node) -> None:
+    """Spin ``node`` on an EventsExecutor until SIGINT or SIGTERM."""
+    from rclpy.experimental import EventsExecutor
+
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    executor = EventsExecutor()
+    executor.add_node(node)
+    try:
+        while not stop.is_set() and rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+    finally:
+        executor.remove_node(node)
+        executor.shutdown()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run fishtail_driver driver``."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = DriverNode()
+    except (ValueError, rclpy.exceptions.ParameterException) as error:
+        print(f"driver: error: {error}", file=sys.stderr)
+        rclpy.shutdown()
+        return 2
+    try:
+        spin_until_signal(node)
+    finally:
+        node.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,266 @@
+"""Kinematics node: carrier angle in, tail pose out.
+
+Topics (relative names):
+  sub ``motor/joint_state``  sensor_msgs/JointState (the driver's carrier joint), sensor-data QoS
+  pub ``tail/joint_states``  sensor_msgs/JointState: theta1, theta2, theta3 (+ theta4, theta5 for
+                             the undulatory mechanism), positions [rad] and velocities [rad/s]
+  pub ``tail/tip``           geometry_msgs/PointStamped, tip T in frame ``frame_id`` (origin O)
+  pub ``tail/state``         fishtail_msgs/TailState, everything, stamped like the encoder sample
+  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray
+
+Geometry parameters are validated by the engine when set: an infeasible linkage is refused with
+the engine's reason and the previous geometry stays in force.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PointStamped
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import JointState
+
+from fishtail_kinematics.errors import FishtailKinematicsError
+from fishtail_kinematics.mechanisms import UndulatoryTail, make_tail
+from fishtail_kinematics.parameters import (
+    MECHANISM_PARAMETER,
+    PARAMETERS_BY_NAME,
+    geometry_from_parameters,
+)
+from fishtail_kinematics.ros_common import (
+    declare_geometry_parameters,
+    diagnostic_array,
+    float_descriptor,
+    geometry_parameter_values,
+    spin_until_signal,
+)
+from fishtail_msgs.msg import TailState
+
+OSCILLATORY_JOINTS = ["theta1", "theta2", "theta3"]
+UNDULATORY_JOINTS = [*OSCILLATORY_JOINTS, "theta4", "theta5"]
+_NAN = float("nan")
+_LEVEL_STALE = 3
+
+
+class KinematicsNode(Node):
+    """Thin shell around the engine: messages in, messages out, parameters validated."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the engine (raises on an infeasible geometry), wire topics."""
+        super().__init__("kinematics")
+        declare_geometry_parameters(self)
+        self.declare_parameter(
+            "motor_joint_name", "carrier_joint",
+            ParameterDescriptor(description="joint of motor/joint_state that is the carrier"),
+        )  # fmt: skip
+        self.declare_parameter(
+            "frame_id", "tail_mechanism",
+            ParameterDescriptor(
+                description="frame of tail/tip: origin O (ring-gear centre), x back along the body "
+                "towards the tail, y left, z down",
+                read_only=True,
+            ),
+        )  # fmt: skip
+        self.declare_parameter(
+            "stale_timeout_sec", 2.0,
+            float_descriptor("diagnostics say STALE after this long without input [s]", 0.1, 600.0),
+        )  # fmt: skip
+        self.tail = make_tail(geometry_from_parameters(geometry_parameter_values(self)))
+        self.frame_id = self.get_parameter("frame_id").value
+        self.motor_joint_name = self.get_parameter("motor_joint_name").value
+        self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
+        self._previous_input: tuple[float, float] | None = None
+        self.received = 0
+        self.rejected = 0
+        self.rejected_since_report = 0
+        self.last_reason = ""
+        self.last_input_ns: int | None = None
+
+        self.joint_states = JointState()
+        self.tip = PointStamped()
+        self.state = TailState()
+        self._configure_messages()
+        self.joint_publisher = self.create_publisher(
+            JointState, "tail/joint_states", qos_profile_sensor_data
+        )
+        self.tip_publisher = self.create_publisher(
+            PointStamped, "tail/tip", qos_profile_sensor_data
+        )
+        self.state_publisher = self.create_publisher(
+            TailState, "tail/state", qos_profile_sensor_data
+        )
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_subscription(
+            JointState, "motor/joint_state", self._on_motor_state, qos_profile_sensor_data
+        )
+        self.create_timer(1.0, self._on_diagnostics)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.get_logger().info(f"kinematics up: {self._geometry_text()}")
+
+    def _geometry_text(self) -> str:
+        drive = self.tail.drive if isinstance(self.tail, UndulatoryTail) else self.tail
+        return (
+            f"{self.get_parameter(MECHANISM_PARAMETER).value} mechanism, swing range "
+            f"{math.degrees(drive.swing_range_rad):.3f} deg"
+        )
+
+    def _configure_messages(self) -> None:
+        undulatory = isinstance(self.tail, UndulatoryTail)
+        self.joint_states.name = UNDULATORY_JOINTS if undulatory else OSCILLATORY_JOINTS
+        self.tip.header.frame_id = self.frame_id
+        self.state.header.frame_id = self.frame_id
+        self.state.mechanism = (
+            TailState.MECHANISM_UNDULATORY if undulatory else TailState.MECHANISM_OSCILLATORY
+        )
+        if not undulatory:
+            for field in (
+                "theta4", "theta4_dot", "pin_u_distance", "pin_u_distance_rate",
+                "slider_a_distance", "slider_a_distance_rate", "theta5", "theta5_dot",
+            ):  # fmt: skip
+                setattr(self.state, field, _NAN)
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        changed = {p.name: p.value for p in parameters}
+        geometry_names = {MECHANISM_PARAMETER, *PARAMETERS_BY_NAME}
+        if not geometry_names & changed.keys():
+            if "motor_joint_name" in changed:
+                self.motor_joint_name = changed["motor_joint_name"]
+                self._joint_index_cache = ((), None)
+            return SetParametersResult(successful=True)
+        values = {**geometry_parameter_values(self), **changed}
+        try:
+            tail = make_tail(geometry_from_parameters(values))
+        except FishtailKinematicsError as error:
+            self.get_logger().warning(f"geometry change refused: {error}")
+            return SetParametersResult(successful=False, reason=str(error))
+        self.tail = tail
+        self._configure_messages()
+        self.get_logger().info(f"geometry changed: {values}")
+        if "motor_joint_name" in changed:
+            self.motor_joint_name = changed["motor_joint_name"]
+            self._joint_index_cache = ((), None)
+        return SetParametersResult(successful=True)
+
+    def _joint_index(self, names) -> int | None:
+        key = tuple(names)
+        cached_names, index = self._joint_index_cache
+        if key != cached_names:
+            index = key.index(self.motor_joint_name) if self.motor_joint_name in key else None
+            self._joint_index_cache = (key, index)
+        return index
+
+    def _reject(self, reason: str) -> None:
+        self.rejected += 1
+        self.rejected_since_report += 1
+        self.last_reason = reason
+        self.get_logger().warning(reason, throttle_duration_sec=2.0)
+
+    def _on_motor_state(self, message: JointState) -> None:
+        self.received += 1
+        self.last_input_ns = self.get_clock().now().nanoseconds
+        index = self._joint_index(message.name)
+        if index is None or index >= len(message.position):
+            self._reject(f"motor/joint_state has no position for joint {self.motor_joint_name!r}")
+            return
+        angle = message.position[index]
+        stamp = message.header.stamp
+        time_s = stamp.sec + stamp.nanosec * 1e-9
+        if index < len(message.velocity):
+            velocity = message.velocity[index]
+        elif self._previous_input is not None and time_s > self._previous_input[0]:
+            velocity = (angle - self._previous_input[1]) / (time_s - self._previous_input[0])
+        else:
+            velocity = 0.0
+        self._previous_input = (time_s, angle)
+        if not (math.isfinite(angle) and math.isfinite(velocity)):
+            self._reject(f"non-finite carrier angle {angle!r} or velocity {velocity!r} dropped")
+            return
+        self.publish_state(self.tail.solve(float(angle), float(velocity)), stamp)
+
+    def publish_state(self, s, stamp) -> None:
+        """Fill and publish the three tail messages from an engine state."""
+        undulatory = isinstance(self.tail, UndulatoryTail)
+        joints = self.joint_states
+        joints.header.stamp = stamp
+        if undulatory:
+            joints.position = [s.theta1, s.theta2, s.theta3, s.theta4, s.theta5]
+            joints.velocity = [s.theta1_dot, s.theta2_dot, s.theta3_dot, s.theta4_dot, s.theta5_dot]
+        else:
+            joints.position = [s.theta1, s.theta2, s.theta3]
+            joints.velocity = [s.theta1_dot, s.theta2_dot, s.theta3_dot]
+        self.joint_publisher.publish(joints)
+
+        tip = self.tip
+        tip.header.stamp = stamp
+        tip.point.x = s.tip_x
+        tip.point.y = s.tip_y
+        self.tip_publisher.publish(tip)
+
+        state = self.state
+        state.header.stamp = stamp
+        state.motor_angle = s.motor_angle
+        state.motor_velocity = s.motor_velocity
+        state.slider_position = s.slider_position
+        state.slider_velocity = s.slider_velocity
+        state.theta1 = s.theta1
+        state.theta1_dot = s.theta1_dot
+        state.theta2 = s.theta2
+        state.theta2_dot = s.theta2_dot
+        state.theta3 = s.theta3
+        state.theta3_dot = s.theta3_dot
+        if undulatory:
+            state.theta4 = s.theta4
+            state.theta4_dot = s.theta4_dot
+            state.pin_u_distance = s.pin_u_distance
+            state.pin_u_distance_rate = s.pin_u_distance_rate
+            state.slider_a_distance = s.slider_a_distance
+            state.slider_a_distance_rate = s.slider_a_distance_rate
+            state.theta5 = s.theta5
+            state.theta5_dot = s.theta5_dot
+        state.tip.x = s.tip_x
+        state.tip.y = s.tip_y
+        state.tip_velocity.x = s.tip_x_dot
+        state.tip_velocity.y = s.tip_y_dot
+        self.state_publisher.publish(state)
+
+    def _on_diagnostics(self) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        stale_after = self.get_parameter("stale_timeout_sec").value
+        if self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after:
+            level, text = _LEVEL_STALE, "no motor/joint_state received recently"
+        elif self.rejected_since_report:
+            level, text = 1, f"{self.rejected_since_report} inputs dropped: {self.last_reason}"
+        else:
+            level, text = 0, self._geometry_text()
+        self.rejected_since_report = 0
+        values = {"received": str(self.received), "rejected": str(self.rejected)}
+        self.diagnostics_publisher.publish(
+            diagnostic_array(self, "kinematics", level, text, values)
+        )
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of ``ros2 run fishtail_kinematics node``."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = KinematicsNode()
+    except (FishtailKinematicsError, rclpy.exceptions.ParameterException) as error:
+        print(f"kinematics: error: {error}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        spin_until_signal(node)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

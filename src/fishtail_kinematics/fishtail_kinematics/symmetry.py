@@ -1,0 +1,238 @@
+"""Tail-beat segmentation and per-beat swing statistics (used by the monitor and offline analysis).
+
+A beat runs from one upward zero crossing of theta3 to the next. A crossing counts only after
+theta3 has been below ``-hysteresis_rad`` (a Schmitt trigger), so encoder noise around zero does not
+split beats. Crossing times are interpolated linearly between samples, and so are the integrals,
+so the statistics do not depend on the sample rate to first order.
+
+A symmetric linkage spends exactly half of each beat on each side (theta3 = 0 at mid-stroke), so
+the time share is the sharpest detector of a skewed geometry; the time-mean of theta3 is not zero
+even for the symmetric one (theta3 is not odd in OP) and gets a looser tolerance.
+
+>>> import math
+>>> tracker = BeatTracker()
+>>> def theta3(t):
+...     return 0.4 * math.sin(2 * math.pi * (t - 0.05))
+>>> beats = [tracker.add(k * 0.01, theta3(k * 0.01)) for k in range(400)]
+>>> [round(b.period_s, 6) for b in beats if b is not None]
+[1.0, 1.0, 1.0]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+
+
+class Verdict(enum.IntEnum):
+    """Per-beat verdict; values as in fishtail_msgs/SymmetryReport and DiagnosticStatus."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+
+
+@dataclasses.dataclass(frozen=True)
+class SymmetryTolerances:
+    """Limits of a beat's asymmetry; WARN above the first of each pair, ERROR above the second."""
+
+    time_share_warn: float = 0.005
+    time_share_error: float = 0.02
+    mean_angle_warn_rad: float = 0.01
+    mean_angle_error_rad: float = 0.035
+    peak_asymmetry_warn_rad: float = 0.01
+    peak_asymmetry_error_rad: float = 0.035
+
+    def __post_init__(self) -> None:
+        """Refuse negative, non-finite or inverted limits."""
+        pairs = (
+            ("time_share", self.time_share_warn, self.time_share_error),
+            ("mean_angle", self.mean_angle_warn_rad, self.mean_angle_error_rad),
+            ("peak_asymmetry", self.peak_asymmetry_warn_rad, self.peak_asymmetry_error_rad),
+        )
+        for name, warn, error in pairs:
+            if not (math.isfinite(warn) and math.isfinite(error) and 0.0 <= warn <= error):
+                raise ValueError(f"{name} tolerances need 0 <= warn <= error, got {warn}, {error}")
+
+
+@dataclasses.dataclass(frozen=True)
+class BeatStatistics:
+    """One tail beat: peaks, amplitude, time-mean of theta3, time on each side, period."""
+
+    index: int
+    start_s: float
+    end_s: float
+    positive_peak_rad: float
+    negative_peak_rad: float
+    mean_angle_rad: float
+    positive_time_share: float
+    negative_time_share: float
+
+    @property
+    def period_s(self) -> float:
+        """Duration of the beat."""
+        return self.end_s - self.start_s
+
+    @property
+    def frequency_hz(self) -> float:
+        """Tail-beat frequency."""
+        return 1.0 / self.period_s
+
+    @property
+    def amplitude_rad(self) -> float:
+        """Half the peak-to-peak swing."""
+        return 0.5 * (self.positive_peak_rad - self.negative_peak_rad)
+
+    @property
+    def peak_asymmetry_rad(self) -> float:
+        """Positive peak + negative peak: zero when the swing is centred on theta3 = 0."""
+        return self.positive_peak_rad + self.negative_peak_rad
+
+    @property
+    def time_share_imbalance(self) -> float:
+        """Positive minus negative time share, halved: zero for a symmetric swing."""
+        return 0.5 * (self.positive_time_share - self.negative_time_share)
+
+
+def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict, str]:
+    """Verdict and a one-line reason that quotes the measured bias."""
+    degrees = math.degrees
+    measures = (
+        ("time share", beat.time_share_imbalance, tolerances.time_share_warn,
+         tolerances.time_share_error, f"{beat.positive_time_share:.4f} of the beat on +side",
+         lambda limit: f"0.5 +/- {limit:g}"),
+        ("mean angle", beat.mean_angle_rad, tolerances.mean_angle_warn_rad,
+         tolerances.mean_angle_error_rad, f"mean theta3 {degrees(beat.mean_angle_rad):+.3f} deg",
+         lambda limit: f"+/- {degrees(limit):.3f} deg"),
+        ("peak asymmetry", beat.peak_asymmetry_rad, tolerances.peak_asymmetry_warn_rad,
+         tolerances.peak_asymmetry_error_rad,
+         f"peaks {degrees(beat.positive_peak_rad):+.3f}/{degrees(beat.negative_peak_rad):+.3f} deg",
+         lambda limit: f"sum within +/- {degrees(limit):.3f} deg"),
+    )  # fmt: skip
+    verdict = Verdict.OK
+    failures = []
+    for name, value, warn, error, text, limit_text in measures:
+        if abs(value) > error:
+            verdict = Verdict.ERROR
+            failures.append(f"{name} off: {text}, limit {limit_text(error)}")
+        elif abs(value) > warn:
+            verdict = max(verdict, Verdict.WARN)
+            failures.append(f"{name} off: {text}, limit {limit_text(warn)}")
+    if not failures:
+        return verdict, (
+            f"symmetric: {beat.positive_time_share:.4f} of the beat on +side, "
+            f"mean theta3 {math.degrees(beat.mean_angle_rad):+.3f} deg"
+        )
+    return verdict, "asymmetric swing: " + "; ".join(failures)
+
+
+class BeatTracker:
+    """Streaming beat segmentation: feed samples with :meth:`add`, get a beat when one completes.
+
+    Per sample it does a handful of float operations and allocates nothing unless a beat ends.
+    Samples must come in increasing time; an older or equal time, or a non-finite value, is
+    ignored and counted in :attr:`rejected_samples` (the caller reports it).
+    """
+
+    def __init__(self, hysteresis_rad: float = 0.01) -> None:
+        """Create a tracker that needs theta3 below -hysteresis_rad before a crossing counts."""
+        if not (math.isfinite(hysteresis_rad) and hysteresis_rad >= 0.0):
+            raise ValueError(f"hysteresis_rad must be finite and >= 0, got {hysteresis_rad!r}")
+        self.hysteresis_rad = hysteresis_rad
+        self.beats_completed = 0
+        self.rejected_samples = 0
+        self._last_time: float | None = None
+        self._last_value = 0.0
+        self._armed = False
+        self._in_beat = False
+        self._reset_beat(0.0)
+
+    def _reset_beat(self, start_s: float) -> None:
+        self._start = start_s
+        self._maximum = -math.inf
+        self._minimum = math.inf
+        self._integral = 0.0
+        self._positive_time = 0.0
+
+    def reset(self) -> None:
+        """Forget the beat in progress (e.g. after a gap in the data)."""
+        self._last_time = None
+        self._armed = False
+        self._in_beat = False
+
+    def add(self, time_s: float, theta3: float) -> BeatStatistics | None:
+        """Add one sample; return the beat it completes, if any."""
+        if not (math.isfinite(time_s) and math.isfinite(theta3)):
+            self.rejected_samples += 1
+            return None
+        previous_time = self._last_time
+        if previous_time is None:
+            self._last_time, self._last_value = time_s, theta3
+            self._armed = theta3 < -self.hysteresis_rad
+            return None
+        if time_s <= previous_time:
+            self.rejected_samples += 1
+            return None
+        previous = self._last_value
+        self._last_time, self._last_value = time_s, theta3
+        completed = None
+        if self._armed and previous < 0.0 <= theta3:
+            crossing = previous_time + (time_s - previous_time) * (-previous) / (theta3 - previous)
+            if self._in_beat:
+                self._accumulate(previous_time, previous, crossing, 0.0)
+                completed = self._finish(crossing)
+            self._in_beat = True
+            self._armed = False
+            self._reset_beat(crossing)
+            self._accumulate(crossing, 0.0, time_s, theta3)
+        elif self._in_beat:
+            self._accumulate(previous_time, previous, time_s, theta3)
+        if theta3 < -self.hysteresis_rad:
+            self._armed = True
+        return completed
+
+    def _accumulate(self, t0: float, v0: float, t1: float, v1: float) -> None:
+        dt = t1 - t0
+        if v0 > self._maximum:
+            self._maximum = v0
+        if v1 > self._maximum:
+            self._maximum = v1
+        if v0 < self._minimum:
+            self._minimum = v0
+        if v1 < self._minimum:
+            self._minimum = v1
+        self._integral += 0.5 * (v0 + v1) * dt
+        if v0 >= 0.0 and v1 >= 0.0:
+            self._positive_time += dt
+        elif (v0 >= 0.0) != (v1 >= 0.0):
+            # The segment crosses zero: split it at the interpolated crossing.
+            positive_end = v0 if v0 >= 0.0 else v1
+            self._positive_time += dt * positive_end / (abs(v0) + abs(v1))
+
+    def _finish(self, end_s: float) -> BeatStatistics:
+        period = end_s - self._start
+        positive_share = self._positive_time / period
+        beat = BeatStatistics(
+            index=self.beats_completed,
+            start_s=self._start,
+            end_s=end_s,
+            positive_peak_rad=self._maximum,
+            negative_peak_rad=self._minimum,
+            mean_angle_rad=self._integral / period,
+            positive_time_share=positive_share,
+            negative_time_share=1.0 - positive_share,
+        )
+        self.beats_completed += 1
+        return beat
+
+
+def beats_of(time_s, theta3, hysteresis_rad: float = 0.01) -> list[BeatStatistics]:
+    """All complete beats of a recorded series (the same code path as the live monitor)."""
+    tracker = BeatTracker(hysteresis_rad)
+    beats = []
+    for t, value in zip(time_s, theta3, strict=True):
+        beat = tracker.add(float(t), float(value))
+        if beat is not None:
+            beats.append(beat)
+    return beats
