@@ -1,0 +1,1 @@
+"""Starting the fishtail node suite."""

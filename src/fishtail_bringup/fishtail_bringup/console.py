@@ -1,0 +1,44 @@
+"""What the live console shows, as plain functions of the latest values (no rclpy here).
+
+>>> line = status_line(2.5, 4.0, 10.2, 0.372, (0.34, 0.055), "beat 3 OK: symmetric")
+>>> for part in line.split(" | "):
+...     print(part)
+t    2.5 s
+speed 4.00 rad/s
+carrier   10.20 rad
+θ3 +21.31°
+tip (0.340, +0.055) m
+beat 3 OK: symmetric
+"""
+
+from __future__ import annotations
+
+import math
+
+VERDICT_NAMES = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
+
+
+def status_line(
+    elapsed_s: float,
+    speed_rad_s: float | None,
+    carrier_rad: float | None,
+    theta3_rad: float | None,
+    tip_m: tuple[float, float] | None,
+    verdict_text: str,
+) -> str:
+    """One line with the carrier, theta3, the tip and the latest symmetry verdict."""
+    speed = "  --" if speed_rad_s is None else f"{speed_rad_s:4.2f}"
+    carrier = "     --" if carrier_rad is None else f"{carrier_rad:7.2f}"
+    theta3 = "    --" if theta3_rad is None else f"{math.degrees(theta3_rad):+6.2f}"
+    tip = "(--, --)" if tip_m is None else f"({tip_m[0]:.3f}, {tip_m[1]:+.3f})"
+    return (
+        f"t {elapsed_s:6.1f} s | speed {speed} rad/s | carrier {carrier} rad | θ3 {theta3}° | "
+        f"tip {tip} m | {verdict_text}"
+    )
+
+
+def verdict_text(beat_index: int | None, verdict: int | None, message: str) -> str:
+    """The symmetry part of the status line."""
+    if beat_index is None or verdict is None:
+        return "waiting for the first beat"
+    return f"beat {beat_index} {VERDICT_NAMES.get(verdict, str(verdict))}: {message}"

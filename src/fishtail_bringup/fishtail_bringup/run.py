@@ -1,0 +1,277 @@
+"""``fishtail-run``: start the node suite, command the motor and show the tail live.
+
+For machines without ``ros2 launch`` (ROS 2 from PyPI wheels): the driver, kinematics and monitor
+nodes run as separate processes, each in its own process group (so one signal reaches the whole
+node), with their output prefixed and forwarded here. This process also hosts a small console node
+that publishes the carrier speed (``motor/cmd_speed``, 10 Hz, so the driver's watchdog stays
+quiet) and prints the carrier angle, theta3, the tip and the latest symmetry verdict.
+
+Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
+kills any that hang. A node that dies early ends the run with exit status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from fishtail_bringup.console import status_line, verdict_text
+
+NODES = (
+    ("driver", "fishtail_driver.node"),
+    ("kinematics", "fishtail_kinematics.node"),
+    ("monitor", "fishtail_kinematics.monitor_node"),
+)
+COMMAND_PERIOD_S = 0.1
+SHUTDOWN_WAIT_S = 5.0
+
+
+def default_config(mechanism: str) -> Path:
+    """config/<mechanism>.yaml of the workspace, else the copy installed with this package."""
+    root = os.environ.get("FISHTAIL_ROOT")
+    if root and (Path(root) / "config" / f"{mechanism}.yaml").is_file():
+        return Path(root) / "config" / f"{mechanism}.yaml"
+    from ament_index_python.packages import get_package_share_directory
+
+    return Path(get_package_share_directory("fishtail_bringup")) / "config" / f"{mechanism}.yaml"
+
+
+def _speed(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError("speed must be finite and >= 0 rad/s (one-way motor)")
+    return value
+
+
+def _duration(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError("duration must be a positive number of seconds")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    parser = argparse.ArgumentParser(prog="fishtail-run", description=__doc__.splitlines()[0])
+    parser.add_argument("--mechanism", choices=("oscillatory", "undulatory"), default="oscillatory")
+    parser.add_argument("--config", type=Path, help="parameter file (default config/<mechanism>)")
+    parser.add_argument("--speed", type=_speed, default=4.0, help="carrier speed, rad/s (4)")
+    parser.add_argument("--duration", type=_duration, help="stop after this many seconds")
+    parser.add_argument("--namespace", default="", help="namespace for the whole suite")
+    parser.add_argument(
+        "--driver-param",
+        action="append",
+        default=[],
+        metavar="NAME:=VALUE",
+        help="extra driver parameter, e.g. backend:=serial (repeatable)",
+    )
+    return parser
+
+
+class Supervisor:
+    """Starts the node processes, forwards their output, stops them."""
+
+    def __init__(self, config: Path, namespace: str, driver_params: list[str]) -> None:
+        """Remember how to start the nodes."""
+        self.config = config
+        self.namespace = namespace
+        self.driver_params = driver_params
+        self.processes: dict[str, subprocess.Popen] = {}
+        self.print_lock = threading.Lock()
+        self.clear_line = ""
+
+    def command_for(self, name: str, module: str) -> list[str]:
+        """The command line of one node."""
+        command = [sys.executable, "-m", module, "--ros-args", "--params-file", str(self.config)]
+        if self.namespace:
+            command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
+        if name == "driver":
+            for item in self.driver_params:
+                command += ["-p", item]
+        return command
+
+    def start(self) -> None:
+        """Start every node in its own process group."""
+        for name, module in NODES:
+            process = subprocess.Popen(
+                self.command_for(name, module),
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                start_new_session=True,
+                env=os.environ.copy(),
+                text=True,
+                bufsize=1,
+            )
+            self.processes[name] = process
+            threading.Thread(target=self._forward, args=(name, process), daemon=True).start()
+
+    def _forward(self, name: str, process: subprocess.Popen) -> None:
+        for line in process.stdout:
+            self.say(f"[{name}] {line.rstrip()}")
+
+    def say(self, text: str) -> None:
+        """Print a line above the live status line."""
+        with self.print_lock:
+            sys.stdout.write(self.clear_line + text + "\n")
+            sys.stdout.flush()
+
+    def dead(self) -> list[tuple[str, int]]:
+        """Nodes that have exited, with their status."""
+        return [(n, p.returncode) for n, p in self.processes.items() if p.poll() is not None]
+
+    def stop(self) -> dict[str, int | None]:
+        """SIGINT every node's group, wait, kill what hangs; return the exit statuses."""
+        for process in self.processes.values():
+            if process.poll() is None:
+                try:
+                    os.killpg(process.pid, signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        deadline = time.monotonic() + SHUTDOWN_WAIT_S
+        statuses: dict[str, int | None] = {}
+        for name, process in self.processes.items():
+            try:
+                statuses[name] = process.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                self.say(f"[{name}] did not stop within {SHUTDOWN_WAIT_S:g} s: killed")
+                os.killpg(process.pid, signal.SIGKILL)
+                statuses[name] = process.wait()
+        return statuses
+
+
+class Console:
+    """The in-process node: commands the speed, keeps the latest values for the status line."""
+
+    def __init__(self, speed_rad_s: float, namespace: str) -> None:
+        """Create the node with its publisher and subscriptions."""
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.qos import qos_profile_sensor_data
+        from std_msgs.msg import Float64
+
+        from fishtail_msgs.msg import SymmetryReport, TailState
+
+        self.rclpy = rclpy
+        self.Float64 = Float64
+        self.node = rclpy.create_node("fishtail_console", namespace=namespace or None)
+        self.speed = speed_rad_s
+        self.state = None
+        self.report = None
+        self.diagnostics: dict[str, tuple[int, str]] = {}
+        self.publisher = self.node.create_publisher(Float64, "motor/cmd_speed", 10)
+        self.node.create_subscription(
+            TailState, "tail/state", self._on_state, qos_profile_sensor_data
+        )
+        self.node.create_subscription(SymmetryReport, "tail/symmetry", self._on_report, 10)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        self.node.create_timer(COMMAND_PERIOD_S, self.command)
+
+    def _on_state(self, message) -> None:
+        self.state = message
+
+    def _on_report(self, message) -> None:
+        self.report = message
+
+    def _on_diagnostics(self, message) -> None:
+        for status in message.status:
+            self.diagnostics[status.name] = (status.level[0], status.message)
+
+    def command(self, speed: float | None = None) -> None:
+        """Publish the carrier speed."""
+        self.publisher.publish(self.Float64(data=self.speed if speed is None else speed))
+
+    def line(self, elapsed_s: float) -> str:
+        """The current status line."""
+        state = self.state
+        report = self.report
+        verdict = verdict_text(
+            None if report is None else report.beat_index,
+            None if report is None else report.verdict,
+            "" if report is None else report.message,
+        )
+        return status_line(
+            elapsed_s,
+            None if state is None else state.motor_velocity,
+            None if state is None else state.motor_angle,
+            None if state is None else state.theta3,
+            None if state is None else (state.tip.x, state.tip.y),
+            verdict,
+        )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``fishtail-run``."""
+    arguments = build_parser().parse_args(argv)
+    config = arguments.config or default_config(arguments.mechanism)
+    if not config.is_file():
+        print(f"fishtail-run: error: no parameter file {config}", file=sys.stderr)
+        return 2
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    supervisor = Supervisor(config, arguments.namespace, arguments.driver_param)
+    interactive = sys.stdout.isatty()
+    if interactive:
+        supervisor.clear_line = "\r\033[K"
+    supervisor.say(
+        f"fishtail-run: {config} at {arguments.speed:g} rad/s"
+        + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
+    )
+    supervisor.start()
+    console = Console(arguments.speed, arguments.namespace)
+    executor = rclpy.executors.SingleThreadedExecutor()
+    executor.add_node(console.node)
+    started = time.monotonic()
+    next_print = started
+    early_exit: list[tuple[str, int]] = []
+    try:
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.05)
+            now = time.monotonic()
+            if arguments.duration and now - started >= arguments.duration:
+                break
+            early_exit = supervisor.dead()
+            if early_exit:
+                break
+            if now >= next_print:
+                line = console.line(now - started)
+                with supervisor.print_lock:
+                    if interactive:
+                        sys.stdout.write("\r\033[K" + line)
+                    else:
+                        sys.stdout.write(line + "\n")
+                    sys.stdout.flush()
+                next_print = now + (0.25 if interactive else 1.0)
+    finally:
+        console.speed = 0.0
+        console.command(0.0)
+        if interactive:
+            sys.stdout.write("\n")
+        statuses = supervisor.stop()
+        summary = console.line(time.monotonic() - started)
+        executor.shutdown()
+        console.node.destroy_node()
+        rclpy.try_shutdown()
+    print(f"fishtail-run: last state: {summary}")
+    for name, status in early_exit:
+        print(f"fishtail-run: error: node {name} exited early with status {status}")
+    failed = {name: status for name, status in statuses.items() if status != 0}
+    if failed:
+        print(f"fishtail-run: nodes ended with non-zero status: {failed}")
+    return 1 if early_exit or failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

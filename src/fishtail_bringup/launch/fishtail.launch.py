@@ -1,0 +1,66 @@
+"""Launch the fishtail suite (driver, kinematics, monitor) on a full ROS 2 Jazzy install.
+
+    ros2 launch fishtail_bringup fishtail.launch.py
+    ros2 launch fishtail_bringup fishtail.launch.py mechanism:=undulatory namespace:=fish1
+    ros2 launch fishtail_bringup fishtail.launch.py params_file:=/path/to/my_tail.yaml
+
+The launch file does not command the motor: publish the carrier speed yourself, e.g.
+    ros2 topic pub -r 10 motor/cmd_speed std_msgs/msg/Float64 "{data: 4.0}"
+(the driver's watchdog stops the motor when commands stop). Machines without ros2 launch use
+`fishtail-run`, which also commands the speed and shows a live console.
+"""
+
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.substitutions import LaunchConfiguration, PythonExpression
+from launch_ros.actions import Node
+
+
+def generate_launch_description():
+    """Three nodes in one namespace, geometry from the params file of the chosen mechanism."""
+    config_dir = os.path.join(get_package_share_directory("fishtail_bringup"), "config")
+    mechanism = LaunchConfiguration("mechanism")
+    params_file = LaunchConfiguration("params_file")
+    namespace = LaunchConfiguration("namespace")
+    default_params = PythonExpression(
+        ["'", config_dir, "/' + '", mechanism, "' + '.yaml'"]
+    )
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument(
+                "mechanism", default_value="oscillatory", description="oscillatory or undulatory"
+            ),
+            DeclareLaunchArgument(
+                "params_file",
+                default_value=default_params,
+                description="ROS 2 parameter file with the geometry (config/<mechanism>.yaml)",
+            ),
+            DeclareLaunchArgument("namespace", default_value="", description="namespace"),
+            DeclareLaunchArgument("backend", default_value="sim", description="sim or serial"),
+            Node(
+                package="fishtail_driver",
+                executable="driver",
+                namespace=namespace,
+                parameters=[params_file, {"backend": LaunchConfiguration("backend")}],
+                output="screen",
+            ),
+            Node(
+                package="fishtail_kinematics",
+                executable="node",
+                name="kinematics",
+                namespace=namespace,
+                parameters=[params_file],
+                output="screen",
+            ),
+            Node(
+                package="fishtail_kinematics",
+                executable="monitor",
+                namespace=namespace,
+                parameters=[params_file],
+                output="screen",
+            ),
+        ]
+    )

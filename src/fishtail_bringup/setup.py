@@ -1,0 +1,32 @@
+"""Build script of the fishtail_bringup ament_python package (built by colcon)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "fishtail_bringup"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
+        # The workspace's config/ (shared with the CLI) is installed here for the launch file.
+        (f"share/{PACKAGE}/config", glob("../../config/*.yaml")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="fishtail maintainers",
+    maintainer_email="fishtail@example.com",
+    description="Launch file and supervisor for the fishtail node suite.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "fishtail-run = fishtail_bringup.run:main",
+        ],
+    },
+)
