@@ -1,0 +1,111 @@
+"""The simulated motor against the closed-form first-order response, and the sim backend."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fishtail_driver.backends import SimBackend
+from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
+
+
+def test_first_order_step_response_is_exact():
+    tau, target = 0.2, 5.0
+    motor = SimulatedMotor(MotorParameters(time_constant_s=tau))
+    motor.command(target)
+    motor.advance(0.37)
+    assert motor.speed_rad_s == pytest.approx(target * (1 - math.exp(-0.37 / tau)), abs=1e-12)
+    expected_angle = target * (0.37 - tau * (1 - math.exp(-0.37 / tau)))
+    assert motor.angle_rad == pytest.approx(expected_angle, abs=1e-12)
+
+
+def test_result_does_not_depend_on_step_size():
+    one_step = SimulatedMotor(MotorParameters())
+    many_steps = SimulatedMotor(MotorParameters())
+    for motor in (one_step, many_steps):
+        motor.command(3.0)
+    one_step.advance(1.0)
+    for _ in range(1000):
+        many_steps.advance(0.001)
+    assert many_steps.angle_rad == pytest.approx(one_step.angle_rad, abs=1e-9)
+    assert many_steps.speed_rad_s == pytest.approx(one_step.speed_rad_s, abs=1e-9)
+
+
+def test_commands_are_clamped_to_the_one_way_speed_range():
+    motor = SimulatedMotor(MotorParameters(max_speed_rad_s=6.0))
+    motor.command(-2.0)
+    assert motor.target_rad_s == 0.0
+    motor.command(60.0)
+    assert motor.target_rad_s == 6.0
+    with pytest.raises(ValueError, match="finite"):
+        motor.command(math.nan)
+
+
+def test_encoder_quantises_to_one_count_of_the_carrier():
+    parameters = MotorParameters(counts_per_revolution=500, gear_ratio=30.0)
+    motor = SimulatedMotor(parameters)
+    motor.command(2.0)
+    resolution = 2 * math.pi / (500 * 30.0)
+    assert parameters.carrier_angle_per_count_rad == pytest.approx(resolution)
+    for _ in range(200):
+        motor.advance(0.013)
+        error = motor.angle_rad - motor.measured_angle_rad()
+        assert 0.0 <= error < resolution + 1e-15
+        counts = motor.measured_angle_rad() / resolution
+        assert counts == pytest.approx(round(counts), abs=1e-6)
+
+
+def test_noise_is_seeded_and_never_reverses_the_motor():
+    def run(seed: int) -> list[float]:
+        motor = SimulatedMotor(MotorParameters(speed_noise_rad_s=1.0, seed=seed))
+        motor.command(0.5)
+        speeds = []
+        for _ in range(300):
+            motor.advance(0.005)
+            speeds.append(motor.speed_rad_s)
+        return speeds
+
+    assert run(3) == run(3)
+    assert run(3) != run(4)
+    assert min(run(3)) >= 0.0
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("time_constant_s", 0.0), ("max_speed_rad_s", -1.0), ("counts_per_revolution", 0),
+     ("counts_per_revolution", 2.5), ("gear_ratio", math.inf), ("speed_noise_rad_s", -0.1)],
+)  # fmt: skip
+def test_parameters_refuse_meaningless_values(field, value):
+    with pytest.raises(ValueError, match=field):
+        MotorParameters(**{field: value})
+
+
+class FakeClock:
+    """A monotonic clock the test moves by hand."""
+
+    def __init__(self) -> None:
+        """Start at an arbitrary non-zero time."""
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        """The current time."""
+        return self.now
+
+
+def test_sim_backend_advances_with_its_clock_and_stops():
+    clock = FakeClock()
+    backend = SimBackend(MotorParameters(time_constant_s=0.1, counts_per_revolution=4096), clock)
+    backend.start()
+    backend.set_speed(4.0)
+    clock.now += 2.0
+    sample = backend.read()
+    assert sample.monotonic_s == 102.0
+    assert sample.velocity_rad_s == pytest.approx(4.0, abs=1e-6)
+    assert sample.angle_rad == pytest.approx(4.0 * (2.0 - 0.1), abs=2 * math.pi / 4096)
+    backend.stop()
+    clock.now += 1.0
+    stopped = backend.read()
+    assert stopped.velocity_rad_s == pytest.approx(0.0, abs=1e-3)
+    level, _, values = backend.status()
+    assert level == 0 and values["target_speed_rad_s"] == "0.0000"
