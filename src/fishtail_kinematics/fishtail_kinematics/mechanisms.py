@@ -197,7 +197,7 @@ def assembly_violations(
     if not link_difference < pivot_offset_m:
         problems.append(
             f"|RS - PR| < OS fails: |RS - PR| = {link_difference:.6f} m is not less than "
-            f"OS = {pivot_offset_m:.6f} m (short by {link_difference - pivot_offset_m:.6f} m)"
+            f"OS = {pivot_offset_m:.6f} m (exceeds it by {link_difference - pivot_offset_m:.6f} m)"
         )
     farthest = math.hypot(pivot_offset_m, ring_radius_m)
     reach = rocker_link_m + crank_link_m

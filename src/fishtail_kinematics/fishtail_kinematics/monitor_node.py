@@ -16,15 +16,13 @@ from __future__ import annotations
 import math
 import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64
 
-from fishtail_kinematics.ros_common import diagnostic_array, float_descriptor, spin_until_signal
+from fishtail_kinematics.ros_common import diagnostic_array, float_descriptor, run_node
 from fishtail_kinematics.symmetry import (
     BeatStatistics,
     BeatTracker,
@@ -200,21 +198,9 @@ class MonitorNode(Node):
         return (now_ns - self.last_progress_ns) * 1e-9 > allowed_s
 
 
-def main(args: list[str] | None = None) -> int:
+def main() -> int:
     """Entry point of ``ros2 run fishtail_kinematics monitor``."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    try:
-        node = MonitorNode()
-    except (ValueError, rclpy.exceptions.ParameterException) as error:
-        print(f"monitor: error: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        spin_until_signal(node)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(MonitorNode, "monitor", (ValueError,))
 
 
 if __name__ == "__main__":

@@ -17,13 +17,11 @@ from __future__ import annotations
 import math
 import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
 from fishtail_kinematics.errors import FishtailKinematicsError
@@ -38,7 +36,7 @@ from fishtail_kinematics.ros_common import (
     diagnostic_array,
     float_descriptor,
     geometry_parameter_values,
-    spin_until_signal,
+    run_node,
 )
 from fishtail_msgs.msg import TailState
 
@@ -245,21 +243,9 @@ class KinematicsNode(Node):
         )
 
 
-def main(args: list[str] | None = None) -> int:
+def main() -> int:
     """Entry point of ``ros2 run fishtail_kinematics node``."""
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    try:
-        node = KinematicsNode()
-    except (FishtailKinematicsError, rclpy.exceptions.ParameterException) as error:
-        print(f"kinematics: error: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        spin_until_signal(node)
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(KinematicsNode, "kinematics", (FishtailKinematicsError,))
 
 
 if __name__ == "__main__":

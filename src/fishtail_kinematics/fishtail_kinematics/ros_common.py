@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from fishtail_kinematics.parameters import GEOMETRY_PARAMETERS, MECHANISM_PARAMETER, MECHANISMS
 
@@ -61,6 +63,27 @@ def diagnostic_array(
     array = DiagnosticArray(status=[status])
     array.header.stamp = node.get_clock().now().to_msg()
     return array
+
+
+def run_node(node_class, label: str, startup_errors: tuple[type[Exception], ...]) -> int:
+    """Create ``node_class``, spin it until SIGINT/SIGTERM and shut down; the nodes' ``main``.
+
+    A node that cannot start because of bad parameters (``startup_errors``) prints one line and
+    returns 2 instead of a traceback.
+    """
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = node_class()
+    except (*startup_errors, rclpy.exceptions.ParameterException) as error:
+        print(f"{label}: error: {error}", file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        spin_until_signal(node)
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
 
 
 def spin_until_signal(node: Node) -> None:
