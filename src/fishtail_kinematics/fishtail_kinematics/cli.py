@@ -1,4 +1,4 @@
-"""``fishtail-kinematics``: one cycle as CSV, the report's figures, and a design summary.
+"""``fishtail-kinematics``: one cycle as CSV, the report's figures, an animation, a design summary.
 
 Geometry comes from a ROS 2 parameter file (``--config config/oscillatory.yaml``, the same file the
 nodes load) and/or flags named after the parameters (``--pivot-offset-m 0.18``); flags win. Bad
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fishtail_kinematics import design, plots
+from fishtail_kinematics import animation, design, plots
 from fishtail_kinematics.errors import FishtailKinematicsError
 from fishtail_kinematics.mechanisms import UndulatoryTail, make_tail
 from fishtail_kinematics.parameters import (
@@ -79,6 +79,31 @@ def _speed(text: str) -> float:
     return value
 
 
+def _frame_count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 2 <= value <= animation.MAX_FRAMES:
+        raise argparse.ArgumentTypeError(
+            f"must be between 2 and {animation.MAX_FRAMES}, got {value}"
+        )
+    return value
+
+
+def _frame_rate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and 0.0 < value <= animation.MAX_FPS):
+        raise argparse.ArgumentTypeError(
+            f"must be > 0 and <= {animation.MAX_FPS:g} frames/s (GIF delays are whole "
+            f"centiseconds), got {text}"
+        )
+    return value
+
+
 def _number(text: str) -> float:
     try:
         return float(text)
@@ -113,6 +138,17 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--speed", type=_speed, default=REPORT_SPEED_RAD_S, help="carrier rad/s (4)")
     plot.add_argument("--output-dir", type=Path, default=Path("figures"))
     commands.add_parser("design", parents=[geometry], help="symmetric RS, range, assembly, mu")
+    animate = commands.add_parser(
+        "animate", parents=[geometry], help="one carrier revolution as an animated GIF"
+    )
+    animate.add_argument(
+        "--output", dest="gif_path", type=Path, default=Path("tail.gif"),
+        help="GIF file to write (tail.gif)",
+    )  # fmt: skip
+    animate.add_argument(
+        "--frames", type=_frame_count, default=72, help="frames per revolution (72)"
+    )
+    animate.add_argument("--fps", type=_frame_rate, default=24.0, help="frames per second (24)")
     return parser
 
 
@@ -199,11 +235,34 @@ def run_design(arguments: argparse.Namespace, out) -> None:
         print(f"{name}: {text}", file=out)
 
 
+def run_animate(arguments: argparse.Namespace, out) -> None:
+    """Write one carrier revolution as an animated GIF and print its path."""
+    path = arguments.gif_path
+    if path.suffix.lower() != ".gif":
+        raise UsageError(f"--output must name a .gif file, got {path}")
+    geometry = geometry_from_arguments(arguments)
+    make_tail(geometry)  # an infeasible geometry fails here, before any drawing
+    if not path.parent.is_dir():
+        raise UsageError(f"cannot write {path}: no directory {path.parent}")
+    try:
+        animation.animate_cycle(
+            geometry, path, arguments.frames, arguments.fps, f"{mechanism_of(geometry)} tail"
+        )
+    except OSError as error:
+        raise UsageError(f"cannot write {path}: {error.strerror or error}") from None
+    print(path, file=out)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``fishtail-kinematics``."""
     parser = build_parser()
     arguments = parser.parse_args(argv)
-    command = {"table": run_table, "plot": run_plot, "design": run_design}[arguments.command]
+    command = {
+        "table": run_table,
+        "plot": run_plot,
+        "design": run_design,
+        "animate": run_animate,
+    }[arguments.command]
     try:
         if getattr(arguments, "output", None) is not None:
             try:

@@ -1,14 +1,19 @@
 """Monitor node: is the tail's swing symmetric?
 
 Topics (relative names):
-  sub ``tail/state``       fishtail_msgs/TailState (theta3 and its stamp), sensor-data QoS
+  sub ``tail/state``       fishtail_msgs/TailState (theta3, the tip's lateral position and
+                           velocity, theta5 for mechanism 2, the stamp), sensor-data QoS
   sub ``motor/cmd_speed``  std_msgs/Float64, to know whether beats are expected
   pub ``tail/symmetry``    fishtail_msgs/SymmetryReport, one per completed beat (reliable)
   pub ``/diagnostics``     diagnostic_msgs/DiagnosticArray: OK / WARN / ERROR from the latest
                            beat against the tolerances, STALE when tail/state stops, ERROR when
-                           the motor is commanded but no beat completes
+                           the motor is commanded but no beat completes; also the swimming
+                           figures of the latest beat (tip excursion, Strouhal number, Lighthill
+                           mean thrust) for the parameters forward_speed_m_s, fin_span_m and
+                           water_density_kg_m3 (docs/swimming.md)
 
-The statistics are :mod:`fishtail_kinematics.symmetry`, the same code the offline analysis uses.
+The statistics are :mod:`fishtail_kinematics.symmetry` and :mod:`fishtail_kinematics.swimming`,
+the same code the offline analysis uses.
 """
 
 from __future__ import annotations
@@ -23,6 +28,12 @@ from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import Float64
 
 from fishtail_kinematics.ros_common import diagnostic_array, float_descriptor, run_node
+from fishtail_kinematics.swimming import (
+    SwimmingParameters,
+    TipKinematics,
+    TipSampleBuffer,
+    figures_from_kinematics,
+)
 from fishtail_kinematics.symmetry import (
     BeatStatistics,
     BeatTracker,
@@ -36,6 +47,11 @@ _LEVEL_STALE = 3
 _TOLERANCE_NAMES = tuple(f.name for f in SymmetryTolerances.__dataclass_fields__.values())
 # Speeds below this are "not commanded" (a beat would take longer than ~2 minutes).
 _MIN_COMMANDED_SPEED_RAD_S = 0.05
+_SWIMMING_PARAMETERS = {
+    "forward_speed_m_s": (0.3, "forward speed U assumed for St and thrust [m/s]", 1e-3, 20.0),
+    "fin_span_m": (0.1, "fin span s at the trailing edge (the tip) [m]", 1e-3, 5.0),
+    "water_density_kg_m3": (1000.0, "water density rho [kg/m^3]", 1.0, 2000.0),
+}
 
 
 class MonitorNode(Node):
@@ -72,7 +88,12 @@ class MonitorNode(Node):
             float_descriptor("a gap in tail/state longer than this restarts the beat [s]",
                              0.01, 60.0),
         )  # fmt: skip
+        for name, (default, text, low, high) in _SWIMMING_PARAMETERS.items():
+            self.declare_parameter(name, default, float_descriptor(text, low, high))
         self.tolerances = self._tolerances_from({})
+        self.swimming_parameters = self._swimming_parameters_from({})
+        self.tip_samples = TipSampleBuffer()
+        self.last_tip_kinematics: TipKinematics | None = None
         self.tracker = BeatTracker(self.get_parameter("hysteresis_rad").value)
         self.last_beat: BeatStatistics | None = None
         self.last_verdict: tuple[Verdict, str] | None = None
@@ -97,13 +118,21 @@ class MonitorNode(Node):
         }
         return SymmetryTolerances(**values)
 
+    def _swimming_parameters_from(self, changed: dict) -> SwimmingParameters:
+        return SwimmingParameters(
+            **{name: changed.get(name, self.get_parameter(name).value) for name in
+               _SWIMMING_PARAMETERS}
+        )  # fmt: skip
+
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
         try:
             tolerances = self._tolerances_from(changed)
+            swimming = self._swimming_parameters_from(changed)
         except ValueError as error:
             return SetParametersResult(successful=False, reason=str(error))
         self.tolerances = tolerances
+        self.swimming_parameters = swimming
         if "hysteresis_rad" in changed:
             self.tracker = BeatTracker(changed["hysteresis_rad"])
         return SetParametersResult(successful=True)
@@ -135,9 +164,17 @@ class MonitorNode(Node):
             and time_s - self.last_sample_time_s > self.get_parameter("gap_reset_sec").value
         ):
             self.tracker.reset()
+            self.tip_samples.reset()
         self.last_sample_time_s = time_s
+        fin_angle = (
+            message.theta5
+            if message.mechanism == TailState.MECHANISM_UNDULATORY
+            else message.theta3
+        )
+        self.tip_samples.add(time_s, message.tip.y, message.tip_velocity.y, fin_angle)
         beat = self.tracker.add(time_s, message.theta3)
         if beat is not None:
+            self.last_tip_kinematics = self.tip_samples.complete(beat)
             self._publish_beat(beat, stamp)
 
     def _publish_beat(self, beat: BeatStatistics, stamp) -> None:
@@ -187,6 +224,14 @@ class MonitorNode(Node):
                 mean_angle_deg=f"{math.degrees(beat.mean_angle_rad):.4f}",
                 positive_time_share=f"{beat.positive_time_share:.5f}",
                 frequency_hz=f"{beat.frequency_hz:.4f}",
+            )
+        if self.last_tip_kinematics is not None:
+            swimming = figures_from_kinematics(self.last_tip_kinematics, self.swimming_parameters)
+            values.update(
+                tip_excursion_m=f"{swimming.tip_excursion_m:.5f}",
+                strouhal_number=f"{swimming.strouhal_number:.4f}",
+                lighthill_mean_thrust_n=f"{swimming.mean_thrust_n:.5g}",
+                assumed_forward_speed_m_s=f"{self.swimming_parameters.forward_speed_m_s:g}",
             )
         self.diagnostics_publisher.publish(
             diagnostic_array(self, "tail swing symmetry", level, text, values)

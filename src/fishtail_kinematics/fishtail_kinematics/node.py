@@ -6,6 +6,9 @@ Topics (relative names):
                              the undulatory mechanism), positions [rad] and velocities [rad/s]
   pub ``tail/tip``           geometry_msgs/PointStamped, tip T in frame ``frame_id`` (origin O)
   pub ``tail/state``         fishtail_msgs/TailState, everything, stamped like the encoder sample
+  pub ``tail/markers``       visualization_msgs/MarkerArray for RViz (config/fishtail.rviz): ring,
+                             planet, Cardan point, links, joints, tip trail; at
+                             ``markers_rate_hz`` (0 = off), built on a timer from the latest state
   pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray
 
 Geometry parameters are validated by the engine when set: an infeasible linkage is refused with
@@ -19,12 +22,13 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
 from fishtail_kinematics.errors import FishtailKinematicsError
+from fishtail_kinematics.marker_publisher import TailMarkerPublisher
 from fishtail_kinematics.mechanisms import UndulatoryTail, make_tail
 from fishtail_kinematics.parameters import (
     MECHANISM_PARAMETER,
@@ -69,6 +73,17 @@ class KinematicsNode(Node):
             "stale_timeout_sec", 2.0,
             float_descriptor("diagnostics say STALE after this long without input [s]", 0.1, 600.0),
         )  # fmt: skip
+        self.declare_parameter(
+            "markers_rate_hz", 30.0,
+            float_descriptor("tail/markers publication rate, 0 = off [Hz]", 0.0, 100.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "markers_trail_length", 90,
+            ParameterDescriptor(
+                description="tip positions in the marker trail, one per marker tick",
+                integer_range=[IntegerRange(from_value=0, to_value=10000, step=1)],
+            ),
+        )  # fmt: skip
         self.tail = make_tail(geometry_from_parameters(geometry_parameter_values(self)))
         self.frame_id = self.get_parameter("frame_id").value
         self.motor_joint_name = self.get_parameter("motor_joint_name").value
@@ -97,6 +112,11 @@ class KinematicsNode(Node):
         self.create_subscription(
             JointState, "motor/joint_state", self._on_motor_state, qos_profile_sensor_data
         )
+        self.markers = TailMarkerPublisher(
+            self, self.tail.geometry, self.frame_id,
+            self.get_parameter("markers_rate_hz").value,
+            self.get_parameter("markers_trail_length").value,
+        )  # fmt: skip
         self.create_timer(1.0, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info(f"kinematics up: {self._geometry_text()}")
@@ -130,6 +150,7 @@ class KinematicsNode(Node):
             if "motor_joint_name" in changed:
                 self.motor_joint_name = changed["motor_joint_name"]
                 self._joint_index_cache = ((), None)
+            self._apply_marker_parameters(changed)
             return SetParametersResult(successful=True)
         values = {**geometry_parameter_values(self), **changed}
         try:
@@ -139,11 +160,19 @@ class KinematicsNode(Node):
             return SetParametersResult(successful=False, reason=str(error))
         self.tail = tail
         self._configure_messages()
+        self.markers.reset(tail.geometry)
         self.get_logger().info(f"geometry changed: {values}")
         if "motor_joint_name" in changed:
             self.motor_joint_name = changed["motor_joint_name"]
             self._joint_index_cache = ((), None)
+        self._apply_marker_parameters(changed)
         return SetParametersResult(successful=True)
+
+    def _apply_marker_parameters(self, changed: dict) -> None:
+        if "markers_rate_hz" in changed:
+            self.markers.set_rate(changed["markers_rate_hz"])
+        if "markers_trail_length" in changed:
+            self.markers.set_trail_length(changed["markers_trail_length"])
 
     def _joint_index(self, names) -> int | None:
         key = tuple(names)
@@ -179,7 +208,9 @@ class KinematicsNode(Node):
         if not (math.isfinite(angle) and math.isfinite(velocity)):
             self._reject(f"non-finite carrier angle {angle!r} or velocity {velocity!r} dropped")
             return
-        self.publish_state(self.tail.solve(float(angle), float(velocity)), stamp)
+        state = self.tail.solve(float(angle), float(velocity))
+        self.publish_state(state, stamp)
+        self.markers.latest = (state, stamp)
 
     def publish_state(self, s, stamp) -> None:
         """Fill and publish the three tail messages from an engine state."""
