@@ -34,7 +34,7 @@ from std_msgs.msg import Float64
 from fishtail_driver.backends import SimBackend
 from fishtail_driver.motor_model import MotorParameters
 
-BACKENDS = ("sim",)
+BACKENDS = ("sim", "serial")
 
 
 def _float_descriptor(text: str, low: float, high: float, read_only: bool = False):
@@ -45,6 +45,75 @@ def _float_descriptor(text: str, low: float, high: float, read_only: bool = Fals
     )
 
 
+def _declare_serial_parameters(node: Node) -> None:
+    """Parameters of the serial backend (ROSArduinoBridge board); read-only, used at start.
+
+    The encoder is described by ``encoder_counts_per_revolution`` and ``gear_ratio``, shared with
+    the sim backend.
+    """
+
+    def integer(text: str, low: int, high: int) -> ParameterDescriptor:
+        return ParameterDescriptor(
+            description=text,
+            integer_range=[IntegerRange(from_value=low, to_value=high, step=1)],
+            read_only=True,
+        )
+
+    declare = node.declare_parameter
+    declare("serial_port", "/dev/ttyACM0", ParameterDescriptor(
+        description="serial: device path (prefer /dev/serial/by-id/...) or pyserial URL",
+        read_only=True))  # fmt: skip
+    declare("serial_baud", 57600, integer("serial: baud rate (the firmware's BAUDRATE)",
+                                          300, 4_000_000))  # fmt: skip
+    declare("serial_read_timeout_sec", 0.1, _float_descriptor(
+        "serial: longest wait for one reply [s]", 0.005, 5.0, True))  # fmt: skip
+    declare("serial_channel", "left", ParameterDescriptor(
+        description="serial: motor channel of the tail on the board: left or right",
+        read_only=True))  # fmt: skip
+    declare("serial_pid_rate_hz", 30, integer(
+        "serial: the firmware's PID_RATE [Hz]; the PID frame is 1000 // PID_RATE ms "
+        "(30 -> 33 ms = 30.30 Hz); m speeds are encoder ticks per frame", 1, 1000))  # fmt: skip
+    declare("serial_poll_rate_hz", 100.0, _float_descriptor(
+        "serial: encoder ('e') polls per second [Hz]", 1.0, 1000.0, True))  # fmt: skip
+    declare("serial_resend_period_sec", 0.5, _float_descriptor(
+        "serial: re-send the current non-zero speed this often, within the board's 2 s "
+        "auto-stop [s]", 0.05, 1.5, True))  # fmt: skip
+    declare("serial_handshake_timeout_sec", 5.0, _float_descriptor(
+        "serial: how long the board may take to answer after the port opens (boards that "
+        "reset on open boot for 1-2 s) [s]", 0.1, 60.0, True))  # fmt: skip
+    declare("serial_stale_timeout_sec", 1.0, _float_descriptor(
+        "serial: no valid reply for this long: reconnect [s]", 0.1, 60.0, True))  # fmt: skip
+
+
+def _make_serial_backend(node: Node):
+    """A SerialBackend configured from the node's parameters (ValueError if inconsistent)."""
+    from fishtail_driver.serial_backend import SerialBackend, SerialConfig
+
+    def value(name: str):
+        return node.get_parameter(name).value
+
+    channel = value("serial_channel")
+    if channel not in ("left", "right"):
+        raise ValueError(f"serial_channel must be 'left' or 'right', got {channel!r}")
+    return SerialBackend(
+        SerialConfig(
+            port=value("serial_port"),
+            baud=value("serial_baud"),
+            read_timeout_s=value("serial_read_timeout_sec"),
+            channel=channel,
+            counts_per_revolution=value("encoder_counts_per_revolution"),
+            gear_ratio=value("gear_ratio"),
+            pid_rate_hz=value("serial_pid_rate_hz"),
+            poll_rate_hz=value("serial_poll_rate_hz"),
+            resend_period_s=value("serial_resend_period_sec"),
+            max_speed_rad_s=value("max_speed_rad_s"),
+            handshake_timeout_s=value("serial_handshake_timeout_sec"),
+            stale_timeout_s=max(value("serial_stale_timeout_sec"),
+                                2.0 * value("serial_read_timeout_sec")),
+        )
+    )  # fmt: skip
+
+
 class DriverNode(Node):
     """Thin shell: parameters, command watchdog, publishing and diagnostics around a backend."""
 
@@ -53,7 +122,7 @@ class DriverNode(Node):
         super().__init__("driver")
         self.declare_parameter(
             "backend", "sim",
-            ParameterDescriptor(description="motor backend: sim", read_only=True),
+            ParameterDescriptor(description="motor backend: sim or serial", read_only=True),
         )  # fmt: skip
         self.declare_parameter(
             "publish_rate_hz", 200.0,
@@ -102,19 +171,24 @@ class DriverNode(Node):
             ParameterDescriptor(description="sim: noise seed", read_only=True),
         )  # fmt: skip
 
+        _declare_serial_parameters(self)
+
         backend_name = self.get_parameter("backend").value
         if backend_name not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend_name!r}")
-        self.backend = SimBackend(
-            MotorParameters(
-                time_constant_s=self.get_parameter("sim_time_constant_s").value,
-                max_speed_rad_s=self.get_parameter("max_speed_rad_s").value,
-                counts_per_revolution=self.get_parameter("encoder_counts_per_revolution").value,
-                gear_ratio=self.get_parameter("gear_ratio").value,
-                speed_noise_rad_s=self.get_parameter("sim_speed_noise_rad_s").value,
-                seed=self.get_parameter("sim_seed").value,
+        if backend_name == "serial":
+            self.backend = _make_serial_backend(self)
+        else:
+            self.backend = SimBackend(
+                MotorParameters(
+                    time_constant_s=self.get_parameter("sim_time_constant_s").value,
+                    max_speed_rad_s=self.get_parameter("max_speed_rad_s").value,
+                    counts_per_revolution=self.get_parameter("encoder_counts_per_revolution").value,
+                    gear_ratio=self.get_parameter("gear_ratio").value,
+                    speed_noise_rad_s=self.get_parameter("sim_speed_noise_rad_s").value,
+                    seed=self.get_parameter("sim_seed").value,
+                )
             )
-        )
         self.backend.start()
 
         self._lock = threading.Lock()

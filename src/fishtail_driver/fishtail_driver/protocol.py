@@ -1,0 +1,507 @@
+r"""ROSArduinoBridge serial protocol: a pure codec (no rclpy, no I/O).
+
+The firmware (hbrobotics/ros_arduino_bridge and its forks, e.g. joshnewans/ros_arduino_bridge)
+reads ASCII commands terminated by CR (13), fields separated by one space, and answers each with
+one line ending CR LF:
+
+=====================  ==========================  ===============================================
+command                reply                       meaning
+=====================  ==========================  ===============================================
+``e``                  ``<left> <right>``          encoder counts, signed 32-bit on the board
+``m <left> <right>``   ``OK``                      target speeds [encoder ticks per PID frame];
+                                                   ``m 0 0`` stops and resets the PID
+``r``                  ``OK``                      reset the encoders (and the PID: motor stops)
+``o <left> <right>``   ``OK``                      raw PWM, -255..255 (joshnewans fork only)
+``u kp:kd:ki:ko``      ``OK``                      PID gains
+``b``                  ``" 57600"`` or ``57600``   the baud rate
+anything else          ``Invalid Command``
+=====================  ==========================  ===============================================
+
+Arguments go through ``atoi`` into a 16-bit AVR ``int``, so every number sent is an integer in
+[-32768, 32767] and arguments stay short (the firmware's argument buffers are 16-32 bytes). The
+board's PID runs every ``1000 / PID_RATE`` ms in integer arithmetic: 33 ms, i.e. 30.30 Hz, for
+the default ``PID_RATE`` of 30. The board stops the motors when no ``m`` (or ``o``) arrives for
+more than 2000 ms.
+
+This module encodes commands, splits the byte stream into reply lines (:class:`LineFramer`),
+parses replies (raising :class:`ReplyError` with a machine-readable ``kind`` and a precise
+``reason`` for anything malformed), converts carrier speeds to ticks per PID frame
+(:class:`Scale`) and turns the board's wrapping, resettable counter into a continuous count
+(:class:`CountUnwrapper`).
+
+>>> encode_motor_speeds(68, 0)
+b'm 68 0\r'
+>>> parse_encoders(b"-12 2147483647")
+(-12, 2147483647)
+>>> scale = Scale(counts_per_revolution=2048)
+>>> scale.frame_ms, round(scale.frame_rate_hz, 2)
+(33, 30.3)
+>>> scale.ticks_per_frame(4.0)
+(43, False)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+
+#: The firmware's default baud rate.
+DEFAULT_BAUD = 57600
+#: The firmware's default PID_RATE [Hz] (the frame is ``1000 // PID_RATE`` ms).
+DEFAULT_PID_RATE_HZ = 30
+#: The board stops the motors when no ``m``/``o`` came for strictly more than this [ms].
+AUTO_STOP_INTERVAL_MS = 2000
+#: AVR ``int`` (what ``atoi`` returns on the board).
+INT16_MIN, INT16_MAX = -(2**15), 2**15 - 1
+#: AVR ``long`` (the encoder counters).
+INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
+#: Raw PWM limit of the ``o`` command.
+PWM_MAX = 255
+#: Longest argument text sent (the smallest firmware argument buffer is 16 bytes incl. NUL).
+MAX_ARGUMENT_CHARS = 15
+#: Longest reply line accepted by default (``-2147483648 -2147483648`` is 23 characters).
+MAX_REPLY_BYTES = 64
+
+OK_REPLY = "OK"
+INVALID_COMMAND_REPLY = "Invalid Command"
+
+CHANNELS = ("left", "right")
+
+_INTEGER = r"-?(?:0|[1-9][0-9]{0,9})"
+_ENCODERS_RE = re.compile(rf"({_INTEGER}) ({_INTEGER})")
+_BAUD_RE = re.compile(r" ?([1-9][0-9]{1,7})")
+
+
+class ReplyError(ValueError):
+    """A reply that is not the expected one.
+
+    Attributes:
+        kind: one of :data:`REPLY_ERROR_KINDS`, for counting.
+        reason: a human-readable explanation naming what was wrong.
+        line: the offending bytes (may be truncated for display).
+    """
+
+    def __init__(self, kind: str, reason: str, line: bytes = b"") -> None:
+        """Record the kind, reason and offending bytes."""
+        super().__init__(f"{kind}: {reason}")
+        self.kind = kind
+        self.reason = reason
+        self.line = bytes(line[:80])
+
+
+#: Every ``ReplyError.kind``.
+REPLY_ERROR_KINDS = (
+    "empty",  # an empty line
+    "binary",  # bytes outside printable ASCII
+    "oversized",  # a line longer than the framer's limit
+    "invalid_command",  # the board answered "Invalid Command"
+    "unexpected",  # a well-formed reply to another command (replies out of step)
+    "garbled",  # printable but not the expected format
+    "out_of_range",  # a number outside the board's integer range
+)
+
+
+def wrap_int32(value: int) -> int:
+    """``value`` as a signed 32-bit counter holds it (two's complement wrap).
+
+    >>> wrap_int32(2**31), wrap_int32(-(2**31) - 1)
+    (-2147483648, 2147483647)
+    """
+    return ((value - INT32_MIN) % 2**32) + INT32_MIN
+
+
+def wrap_int16(value: int) -> int:
+    """``value`` as a 16-bit AVR ``int`` holds it (what ``atoi`` makes of 40000)."""
+    return ((value - INT16_MIN) % 2**16) + INT16_MIN
+
+
+def clamp_int16(value: int) -> int:
+    """``value`` clamped to [-32768, 32767]."""
+    return min(max(value, INT16_MIN), INT16_MAX)
+
+
+# --------------------------------------------------------------------------------------------
+# Encoding
+
+
+def _check_int16(name: str, value: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+    if not INT16_MIN <= value <= INT16_MAX:
+        raise ValueError(
+            f"{name} = {value} is outside the board's 16-bit int range "
+            f"[{INT16_MIN}, {INT16_MAX}] (atoi would wrap it)"
+        )
+    return value
+
+
+def encode_read_encoders() -> bytes:
+    """``e``: read both encoder counts."""
+    return b"e\r"
+
+
+def encode_reset_encoders() -> bytes:
+    """``r``: zero both encoder counts (also resets the PID: the motors stop until the next m)."""
+    return b"r\r"
+
+
+def encode_get_baud() -> bytes:
+    """``b``: ask for the baud rate (a harmless probe: does the board answer?)."""
+    return b"b\r"
+
+
+def encode_motor_speeds(left: int, right: int) -> bytes:
+    """``m left right``: target speeds in encoder ticks per PID frame (16-bit ints)."""
+    _check_int16("left ticks per frame", left)
+    _check_int16("right ticks per frame", right)
+    return f"m {left} {right}\r".encode("ascii")
+
+
+def encode_stop() -> bytes:
+    """``m 0 0``: stop both motors and reset the PID."""
+    return encode_motor_speeds(0, 0)
+
+
+def encode_raw_pwm(left: int, right: int) -> bytes:
+    """``o left right``: raw PWM in [-255, 255] (joshnewans fork; elsewhere Invalid Command)."""
+    for name, value in (("left PWM", left), ("right PWM", right)):
+        _check_int16(name, value)
+        if abs(value) > PWM_MAX:
+            raise ValueError(f"{name} = {value} is outside [-{PWM_MAX}, {PWM_MAX}]")
+    return f"o {left} {right}\r".encode("ascii")
+
+
+def encode_update_pid(kp: int, kd: int, ki: int, ko: int) -> bytes:
+    """``u kp:kd:ki:ko``: PID gains (integers; the whole argument must fit the board's buffer)."""
+    for name, value in (("kp", kp), ("kd", kd), ("ki", ki), ("ko", ko)):
+        _check_int16(name, value)
+    argument = f"{kp}:{kd}:{ki}:{ko}"
+    if len(argument) > MAX_ARGUMENT_CHARS:
+        raise ValueError(
+            f"PID argument {argument!r} is {len(argument)} characters; the firmware's argument "
+            f"buffer holds {MAX_ARGUMENT_CHARS} (overflow is undefined behaviour on the board)"
+        )
+    return f"u {argument}\r".encode("ascii")
+
+
+def channel_ticks(channel: str, ticks: int) -> tuple[int, int]:
+    """(left, right) ticks for driving only ``channel`` ("left" or "right")."""
+    if channel == "left":
+        return ticks, 0
+    if channel == "right":
+        return 0, ticks
+    raise ValueError(f"channel must be 'left' or 'right', got {channel!r}")
+
+
+# --------------------------------------------------------------------------------------------
+# Framing and parsing
+
+
+@dataclasses.dataclass(frozen=True)
+class OversizedLine:
+    """Marker returned by :class:`LineFramer` for a line longer than its limit (discarded)."""
+
+    length: int
+    head: bytes
+
+
+class LineFramer:
+    """Split a byte stream into reply lines (terminated by LF, a trailing CR stripped).
+
+    A line longer than ``max_line_bytes`` is discarded and reported once as an
+    :class:`OversizedLine` (with its first bytes), so that a babbling device cannot grow the
+    buffer without bound.
+    """
+
+    def __init__(self, max_line_bytes: int = MAX_REPLY_BYTES) -> None:
+        """Create an empty framer."""
+        if max_line_bytes < 1:
+            raise ValueError(f"max_line_bytes must be >= 1, got {max_line_bytes}")
+        self.max_line_bytes = max_line_bytes
+        self._buffer = bytearray()
+        self._discarding = 0  # bytes dropped so far from an oversized line (0: not discarding)
+        self._head = b""
+        self._ends_cr = False  # the last byte before the coming LF is a CR
+
+    @property
+    def pending(self) -> bytes:
+        """Bytes of an incomplete line received so far."""
+        return bytes(self._buffer)
+
+    def clear(self) -> None:
+        """Forget everything buffered (after a resynchronisation)."""
+        self._buffer.clear()
+        self._discarding = 0
+        self._head = b""
+
+    def feed(self, data: bytes) -> list[bytes | OversizedLine]:
+        """Add received bytes; return the lines they complete, in order."""
+        out: list[bytes | OversizedLine] = []
+        start = 0
+        while start < len(data):
+            end = data.find(b"\n", start)
+            chunk = data[start:] if end < 0 else data[start:end]
+            if chunk:
+                self._ends_cr = chunk.endswith(b"\r")
+            if self._discarding:
+                self._discarding += len(chunk)
+            else:
+                self._buffer += chunk
+                if len(self._buffer) > self.max_line_bytes + 1:  # +1: the CR before the LF
+                    self._discarding = len(self._buffer)
+                    self._head = bytes(self._buffer[:24])
+                    self._buffer.clear()
+            if end < 0:
+                break
+            if self._discarding:
+                out.append(OversizedLine(self._discarding - self._ends_cr, self._head))
+                self._discarding = 0
+                self._head = b""
+            else:
+                line = bytes(self._buffer)
+                self._buffer.clear()
+                if line.endswith(b"\r"):
+                    line = line[:-1]
+                if len(line) > self.max_line_bytes:
+                    out.append(OversizedLine(len(line), line[:24]))
+                else:
+                    out.append(line)
+            start = end + 1
+        return out
+
+
+def _text(line: bytes) -> str:
+    """Printable-ASCII text of a line, or a ReplyError naming the first bad byte."""
+    if not line:
+        raise ReplyError("empty", "empty reply line", line)
+    for index, byte in enumerate(line):
+        if not 0x20 <= byte <= 0x7E:
+            raise ReplyError(
+                "binary",
+                f"non-printable byte 0x{byte:02x} at offset {index} in {bytes(line[:40])!r}",
+                line,
+            )
+    return line.decode("ascii")
+
+
+def _common_rejections(text: str, line: bytes, expected: str) -> None:
+    if text == INVALID_COMMAND_REPLY:
+        raise ReplyError(
+            "invalid_command", f"the board answered 'Invalid Command' where {expected}", line
+        )
+
+
+def parse_encoders(line: bytes) -> tuple[int, int]:
+    """Parse the reply to ``e``: two signed 32-bit integers separated by one space."""
+    expected = "encoder counts '<left> <right>' were expected"
+    text = _text(line)
+    _common_rejections(text, line, expected)
+    if text == OK_REPLY:
+        raise ReplyError("unexpected", f"got 'OK' where {expected} (replies out of step)", line)
+    match = _ENCODERS_RE.fullmatch(text)
+    if match is None:
+        fields = text.split(" ")
+        if len(fields) != 2:
+            detail = f"{len(fields)} space-separated fields"
+        else:
+            detail = "a field that is not a decimal integer"
+        raise ReplyError("garbled", f"{text[:40]!r} has {detail}; {expected}", line)
+    left, right = int(match.group(1)), int(match.group(2))
+    for name, value in (("left", left), ("right", right)):
+        if not INT32_MIN <= value <= INT32_MAX:
+            raise ReplyError(
+                "out_of_range", f"{name} count {value} is outside the signed 32-bit range", line
+            )
+    return left, right
+
+
+def parse_ok(line: bytes) -> None:
+    """Parse the reply to ``m``, ``r``, ``o`` or ``u``: exactly ``OK``."""
+    expected = "'OK' was expected"
+    text = _text(line)
+    _common_rejections(text, line, expected)
+    if text == OK_REPLY:
+        return
+    if _ENCODERS_RE.fullmatch(text) or _BAUD_RE.fullmatch(text):
+        raise ReplyError("unexpected", f"got {text!r} where {expected} (replies out of step)", line)
+    raise ReplyError("garbled", f"got {text[:40]!r} where {expected}", line)
+
+
+def parse_baud(line: bytes) -> int:
+    """Parse the reply to ``b``: the baud rate, with or without a leading space."""
+    expected = "a baud rate was expected"
+    text = _text(line)
+    _common_rejections(text, line, expected)
+    match = _BAUD_RE.fullmatch(text)
+    if match is None:
+        kind = "unexpected" if text == OK_REPLY or _ENCODERS_RE.fullmatch(text) else "garbled"
+        raise ReplyError(kind, f"got {text[:40]!r} where {expected}", line)
+    return int(match.group(1))
+
+
+# --------------------------------------------------------------------------------------------
+# Units
+
+
+@dataclasses.dataclass(frozen=True)
+class Scale:
+    """Carrier-side units <-> the board's encoder counts and ticks per PID frame.
+
+    Args:
+        counts_per_revolution: encoder counts per motor-shaft revolution (as the board counts
+            them, e.g. 4x the lines of a quadrature encoder decoded on both edges).
+        gear_ratio: motor-shaft turns per carrier turn.
+        pid_rate_hz: the firmware's ``PID_RATE``; the frame is ``1000 // pid_rate_hz`` ms.
+    """
+
+    counts_per_revolution: int
+    gear_ratio: float = 1.0
+    pid_rate_hz: int = DEFAULT_PID_RATE_HZ
+
+    def __post_init__(self) -> None:
+        """Reject meaningless values with the reason."""
+        if (
+            isinstance(self.counts_per_revolution, bool)
+            or not isinstance(self.counts_per_revolution, int)
+            or self.counts_per_revolution < 1
+        ):
+            raise ValueError(
+                f"counts_per_revolution must be an integer >= 1, got {self.counts_per_revolution!r}"
+            )
+        if not (math.isfinite(self.gear_ratio) and self.gear_ratio > 0.0):
+            raise ValueError(f"gear_ratio must be finite and > 0, got {self.gear_ratio!r}")
+        if (
+            isinstance(self.pid_rate_hz, bool)
+            or not isinstance(self.pid_rate_hz, int)
+            or not 1 <= self.pid_rate_hz <= 1000
+        ):
+            raise ValueError(
+                f"pid_rate_hz must be an integer in [1, 1000] (the firmware's PID_RATE), "
+                f"got {self.pid_rate_hz!r}"
+            )
+
+    @property
+    def frame_ms(self) -> int:
+        """PID frame in whole milliseconds, as the firmware computes it (``1000 / PID_RATE``)."""
+        return 1000 // self.pid_rate_hz
+
+    @property
+    def frame_s(self) -> float:
+        """PID frame [s]."""
+        return self.frame_ms / 1000.0
+
+    @property
+    def frame_rate_hz(self) -> float:
+        """Actual PID rate [Hz] (30.30 Hz for PID_RATE 30)."""
+        return 1000.0 / self.frame_ms
+
+    @property
+    def counts_per_carrier_rev(self) -> float:
+        """Encoder counts per carrier revolution."""
+        return self.counts_per_revolution * self.gear_ratio
+
+    @property
+    def rad_per_count(self) -> float:
+        """Carrier angle per encoder count [rad]."""
+        return 2.0 * math.pi / self.counts_per_carrier_rev
+
+    def ticks_per_frame_exact(self, speed_rad_s: float) -> float:
+        """Carrier speed [rad/s] as (unrounded) encoder ticks per PID frame."""
+        return speed_rad_s / self.rad_per_count * self.frame_s
+
+    def ticks_per_frame(self, speed_rad_s: float) -> tuple[int, bool]:
+        """Carrier speed [rad/s] -> (ticks per frame rounded to nearest, clamped?).
+
+        The result is clamped to the 16-bit range the board's ``atoi`` can hold.
+        """
+        if not math.isfinite(speed_rad_s):
+            raise ValueError(f"speed must be finite, got {speed_rad_s!r}")
+        exact = self.ticks_per_frame_exact(speed_rad_s)
+        if exact >= INT16_MAX + 0.5:
+            return INT16_MAX, True
+        if exact <= INT16_MIN - 0.5:
+            return INT16_MIN, True
+        rounded = math.floor(abs(exact) + 0.5)
+        return (rounded if exact >= 0 else -rounded), False
+
+    def speed_from_ticks(self, ticks_per_frame: float) -> float:
+        """Ticks per PID frame -> carrier speed [rad/s]."""
+        return ticks_per_frame * self.rad_per_count / self.frame_s
+
+    def angle_from_counts(self, counts: float) -> float:
+        """Encoder counts -> carrier angle [rad]."""
+        return counts * self.rad_per_count
+
+    def counts_from_angle(self, angle_rad: float) -> float:
+        """Carrier angle [rad] -> encoder counts (unrounded)."""
+        return angle_rad / self.rad_per_count
+
+
+# --------------------------------------------------------------------------------------------
+# Unwrapping
+
+
+@dataclasses.dataclass(frozen=True)
+class UnwrapStep:
+    """What :meth:`CountUnwrapper.update` did with one raw count.
+
+    ``event`` is "first" (first sample or first after :meth:`CountUnwrapper.rebase`: the
+    continuous count is held), "move" (normal step), "wrap" (a step across the 32-bit wrap) or
+    "jump" (a step larger than ``max_step``: treated as a discontinuity, the continuous count is
+    held).
+    """
+
+    total: int
+    delta: int
+    event: str
+
+
+class CountUnwrapper:
+    """Continuous count from the board's signed 32-bit counter, held across discontinuities.
+
+    Steps are taken modulo 2**32 (the shortest way round), so crossing the wrap from 2**31 - 1 to
+    -2**31 is a step of +1. A step larger than ``max_step`` (when given) is treated as a
+    discontinuity (board reset, encoders reset by someone else, corrupt reading that still
+    parsed): the continuous count stays where it was and counting continues from the new raw
+    value. :meth:`rebase` forces the same for the next sample (e.g. after a reconnect).
+
+    >>> unwrapper = CountUnwrapper()
+    >>> raws = (2147483600, 2147483647, -2147483600, 10)
+    >>> [unwrapper.update(raw, max_step=1000).event for raw in raws]
+    ['first', 'move', 'wrap', 'jump']
+    >>> unwrapper.total
+    96
+    """
+
+    def __init__(self) -> None:
+        """Start with no reference: the first sample defines count 0."""
+        self.total = 0
+        self.last_raw: int | None = None
+        self.wraps = 0
+        self.jumps = 0
+
+    def rebase(self) -> None:
+        """Make the next sample a new reference (the continuous count is held)."""
+        self.last_raw = None
+
+    def delta_to(self, raw: int) -> int | None:
+        """The (wrapped) step from the last raw reading to ``raw``; None without a reference."""
+        return None if self.last_raw is None else wrap_int32(raw - self.last_raw)
+
+    def update(self, raw: int, max_step: int | None = None) -> UnwrapStep:
+        """Account for one raw reading; returns the new continuous count and what happened."""
+        if self.last_raw is None:
+            self.last_raw = raw
+            return UnwrapStep(self.total, 0, "first")
+        plain = raw - self.last_raw
+        delta = wrap_int32(plain)
+        self.last_raw = raw
+        if max_step is not None and abs(delta) > max_step:
+            self.jumps += 1
+            return UnwrapStep(self.total, delta, "jump")
+        self.total += delta
+        if delta != plain:
+            self.wraps += 1
+            return UnwrapStep(self.total, delta, "wrap")
+        return UnwrapStep(self.total, delta, "move")

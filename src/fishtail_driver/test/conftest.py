@@ -1,0 +1,353 @@
+"""Fixtures of the serial-backend tests: emulated boards, backends, node processes, a ROS probe.
+
+* ``wait_until(predicate, timeout, what)``: poll a condition (every few ms) until it holds; fails
+  the test naming ``what`` on timeout. Used instead of fixed sleeps.
+* ``fake_board(**config)``: an emulated board (:class:`fishtail_driver.fake_board.FakeBoard`) on
+  a real pty, served by a thread of this process, with a symlink in tmp_path; stopped at teardown.
+* ``board_process(link, *args)``: ``python -m fishtail_driver.fake_board`` as a process (what
+  ``fishtail-fake-board`` runs), its pty path read from its stdout; killed at teardown.
+* ``serial_backend(port, **config)``: a started :class:`SerialBackend`; closed at teardown.
+* ``ros_domain`` / ``ros_probe``: a ROS domain of our own (the same lock directory as the
+  workspace's integration tests, so parallel runs never share a domain), localhost discovery,
+  ROS_LOG_DIR in tmp_path, and a probe node with recording subscriptions.
+
+Helpers live here because pytest imports test files with ``--import-mode=importlib``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import queue
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from fishtail_driver.fake_board import BoardConfig, FakeBoard
+from fishtail_driver.serial_backend import SerialBackend, SerialConfig
+
+POLL_S = 0.005
+
+
+def pytest_configure(config):
+    """Silence a third-party deprecation warning that the ROS message imports trigger."""
+    config.addinivalue_line("filterwarnings", "ignore:module 'sre_:DeprecationWarning:lark")
+
+
+def _wait_until(predicate: Callable[[], object], timeout: float, what: str) -> float:
+    start = time.monotonic()
+    while not predicate():
+        if time.monotonic() - start > timeout:
+            pytest.fail(f"timed out after {timeout:g} s waiting for {what}")
+        time.sleep(POLL_S)
+    return time.monotonic() - start
+
+
+@pytest.fixture
+def wait_until() -> Callable[[Callable[[], object], float, str], float]:
+    """``wait_until(predicate, timeout, what)``: seconds it took; fails the test on timeout."""
+    return _wait_until
+
+
+class BoardHandle:
+    """An in-process FakeBoard served by a thread."""
+
+    def __init__(self, board: FakeBoard, link: Path) -> None:
+        """Start serving ``board``."""
+        self.board = board
+        self.link = link
+        self.paths: list[str] = []
+        self.thread = threading.Thread(target=board.run, name="fake-board", daemon=True)
+
+    def commands(self, prefix: str = "") -> list[str]:
+        """Commands the board ran so far (text, without the CR) starting with ``prefix``."""
+        return [text for _, text in list(self.board.commands) if text.startswith(prefix)]
+
+    def stop(self) -> None:
+        """Stop the loop and release everything."""
+        self.board.stop()
+        self.thread.join(5.0)
+        self.board.close()
+
+
+@pytest.fixture
+def fake_board(tmp_path) -> Callable[..., BoardHandle]:
+    """Start emulated boards: ``fake_board(link=None, log=None, **BoardConfig fields)``."""
+    handles: list[BoardHandle] = []
+
+    def start(link: Path | None = None, log: Path | None = None, **config) -> BoardHandle:
+        link = link or tmp_path / f"board{len(handles)}"
+        holder: list[BoardHandle] = []
+        announced = threading.Event()
+
+        def announce(path: str) -> None:
+            holder[0].paths.append(path)
+            announced.set()
+
+        board = FakeBoard(
+            BoardConfig(**config), link=str(link), log_path=str(log) if log else None,
+            announce=announce,
+        )  # fmt: skip
+        handle = BoardHandle(board, link)
+        holder.append(handle)
+        handles.append(handle)
+        handle.thread.start()
+        assert announced.wait(5.0), "the fake board did not open its pty"
+        return handle
+
+    yield start
+    for handle in handles:
+        handle.stop()
+
+
+class BoardProcess:
+    """``python -m fishtail_driver.fake_board ...`` with its stdout lines collected."""
+
+    def __init__(self, argv: list[str], stderr_path: Path) -> None:
+        """Start it and a thread that reads its stdout (the pty paths it announces)."""
+        self.argv = argv
+        self.stderr_path = stderr_path
+        self.lines: queue.Queue[str] = queue.Queue()
+        with open(stderr_path, "wb") as err:
+            self.popen = subprocess.Popen(
+                argv, env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                stderr=err, text=True, start_new_session=True,
+            )  # fmt: skip
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        for line in self.popen.stdout:
+            self.lines.put(line.strip())
+
+    def next_path(self, timeout: float = 10.0) -> str:
+        """The next pty path it prints."""
+        try:
+            return self.lines.get(timeout=timeout)
+        except queue.Empty:
+            pytest.fail(
+                f"fake board printed no path within {timeout} s: "
+                f"{self.stderr_path.read_text(errors='replace')}"
+            )
+
+    def kill(self, signum: int = signal.SIGKILL) -> None:
+        """Signal it and wait for it to end."""
+        if self.popen.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self.popen.pid, signum)
+            self.popen.wait(5.0)
+
+
+@pytest.fixture
+def board_process(tmp_path) -> Callable[..., BoardProcess]:
+    """Start ``fishtail-fake-board`` processes: ``board_process(link, *extra_args, log=None)``."""
+    processes: list[BoardProcess] = []
+
+    def start(link: Path, *args: str, log: Path | None = None) -> BoardProcess:
+        argv = [sys.executable, "-m", "fishtail_driver.fake_board", "--link", str(link), *args]
+        if log is not None:
+            argv += ["--log", str(log)]
+        process = BoardProcess(argv, tmp_path / f"fake_board{len(processes)}.stderr")
+        processes.append(process)
+        return process
+
+    yield start
+    for process in processes:
+        process.kill(signal.SIGTERM)
+
+
+@pytest.fixture
+def serial_backend() -> Callable[..., SerialBackend]:
+    """Start backends: ``serial_backend(port, **SerialConfig fields)``; closed at teardown."""
+    backends: list[SerialBackend] = []
+
+    def make(port: Path | str, **config) -> SerialBackend:
+        backend = SerialBackend(SerialConfig(port=str(port), **config))
+        backends.append(backend)
+        backend.start()
+        return backend
+
+    yield make
+    for backend in backends:
+        backend.close()
+
+
+# --------------------------------------------------------------------------------------------
+# ROS
+
+#: Same scheme and lock directory as the workspace's test/conftest.py: one domain per test.
+DOMAIN_IDS = range(1, 102)
+_PORT_BASE, _DOMAIN_GAIN = 7400, 250
+_LOCK_DIR = Path(tempfile.gettempdir()) / "fishtail-ros-domains"
+
+
+def _udp_ports_in_use() -> set[int]:
+    ports = set()
+    for table in ("/proc/net/udp", "/proc/net/udp6"):
+        with contextlib.suppress(OSError), open(table, encoding="ascii") as stream:
+            next(stream, None)
+            for line in stream:
+                fields = line.split()
+                if len(fields) > 1 and ":" in fields[1]:
+                    ports.add(int(fields[1].rsplit(":", 1)[1], 16))
+    return ports
+
+
+@pytest.fixture
+def ros_domain(monkeypatch, tmp_path) -> int:
+    """A ROS_DOMAIN_ID no other process uses, localhost discovery, ROS_LOG_DIR in tmp_path."""
+    _LOCK_DIR.mkdir(parents=True, exist_ok=True)
+    ports = _udp_ports_in_use()
+    start = os.getpid() % len(DOMAIN_IDS)
+    claimed = None
+    for step in range(len(DOMAIN_IDS)):
+        domain = DOMAIN_IDS[(start + step) % len(DOMAIN_IDS)]
+        low = _PORT_BASE + _DOMAIN_GAIN * domain
+        if any(low <= port < low + _DOMAIN_GAIN for port in ports):
+            continue
+        descriptor = os.open(_LOCK_DIR / f"{domain}.lock", os.O_CREAT | os.O_RDWR, 0o666)
+        try:
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(descriptor)
+            continue
+        claimed = domain, descriptor
+        break
+    if claimed is None:
+        pytest.fail("no free ROS domain id")
+    domain, descriptor = claimed
+    log_dir = tmp_path / "ros_log"
+    log_dir.mkdir()
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
+    monkeypatch.setenv("ROS_LOG_DIR", str(log_dir))
+    monkeypatch.setenv("PYTHONUNBUFFERED", "1")
+    try:
+        yield domain
+    finally:
+        fcntl.flock(descriptor, fcntl.LOCK_UN)
+        os.close(descriptor)
+
+
+class Probe:
+    """The test's own rclpy context on the test's domain, a node, recorders and waiting."""
+
+    def __init__(self, domain: int) -> None:
+        """Initialise the context, the node and an executor."""
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.experimental import EventsExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        self.context = Context()
+        rclpy.init(
+            context=self.context, domain_id=domain,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )  # fmt: skip
+        self.node = rclpy.create_node("serial_probe", context=self.context)
+        self.executor = EventsExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def close(self) -> None:
+        """Destroy the node and shut the context down."""
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+    def spin_until(self, predicate: Callable[[], object], timeout: float, what: str) -> float:
+        """Process callbacks until ``predicate()`` holds; fails the test on timeout."""
+        start = time.monotonic()
+        while not predicate():
+            if time.monotonic() - start > timeout:
+                pytest.fail(f"timed out after {timeout:g} s waiting for {what}")
+            end = time.monotonic() + 0.02
+            while (left := end - time.monotonic()) > 0:
+                self.executor.spin_once(timeout_sec=left)
+        return time.monotonic() - start
+
+    def record(self, msg_type, topic: str, qos) -> list:
+        """Subscribe; returns the list the messages are appended to."""
+        messages: list = []
+        self.node.create_subscription(msg_type, topic, messages.append, qos)
+        return messages
+
+
+@pytest.fixture
+def ros_probe(ros_domain) -> Probe:
+    """This test's probe node."""
+    probe = Probe(ros_domain)
+    try:
+        yield probe
+    finally:
+        probe.close()
+
+
+class NodeProcess:
+    """``python -m <module> --ros-args ...`` in its own process group, output to tmp_path files."""
+
+    def __init__(self, argv: list[str], log_dir: Path, name: str) -> None:
+        """Start it."""
+        self.argv = argv
+        self.stdout_path = log_dir / f"{name}.stdout"
+        self.stderr_path = log_dir / f"{name}.stderr"
+        with open(self.stdout_path, "wb") as out, open(self.stderr_path, "wb") as err:
+            self.popen = subprocess.Popen(
+                argv, env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=out, stderr=err,
+                start_new_session=True,
+            )  # fmt: skip
+
+    def output(self) -> str:
+        """Command line, exit status and output, for failure messages."""
+        return (
+            f"$ {' '.join(self.argv)}\nexit status: {self.popen.poll()}\n"
+            f"--- stdout\n{self.stdout_path.read_text(errors='replace')}"
+            f"--- stderr\n{self.stderr_path.read_text(errors='replace')}"
+        )
+
+    def signal(self, signum: int) -> None:
+        """Signal the process itself (not its group) if it still runs."""
+        if self.popen.poll() is None:
+            os.kill(self.popen.pid, signum)
+
+    def wait(self, timeout: float) -> int | None:
+        """Exit status within ``timeout`` s, or None."""
+        try:
+            return self.popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            return None
+
+    def stop(self) -> None:
+        """SIGINT, then SIGKILL to the group if it does not exit within 5 s."""
+        self.signal(signal.SIGINT)
+        if self.wait(5.0) is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.popen.pid, signal.SIGKILL)
+            self.popen.wait(5.0)
+
+
+@pytest.fixture
+def driver_process(ros_domain, tmp_path) -> Callable[..., NodeProcess]:
+    """Start the driver node: ``driver_process(params={...})``; stopped at teardown."""
+    processes: list[NodeProcess] = []
+
+    def start(params: dict[str, object]) -> NodeProcess:
+        argv = [sys.executable, "-m", "fishtail_driver.node", "--ros-args"]
+        for key, value in params.items():
+            text = repr(value) if isinstance(value, float) else str(value)
+            argv += ["-p", f"{key}:={text}"]
+        process = NodeProcess(argv, tmp_path, f"driver{len(processes)}")
+        processes.append(process)
+        return process
+
+    yield start
+    for process in processes:
+        process.stop()

@@ -1,0 +1,365 @@
+"""The serial backend against the emulated board over real ptys: normal use and every fault.
+
+Each fault is checked end to end: it is detected, counted and reported by status(), the backend
+recovers by itself, the node-facing calls never block, and the angle never jumps.
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import threading
+import time
+
+import pytest
+
+from fishtail_driver.protocol import INT32_MAX
+
+FAST_RECONNECT = {"reconnect_min_s": 0.05, "reconnect_max_s": 0.2}
+#: read()/status() never wait for I/O: checked while the I/O thread waits 300 ms for replies that
+#: never come (a lock held across I/O would show as a call of ~300 ms; this leaves room for GIL
+#: and scheduling delays on a small, busy machine).
+SLOW_READ_TIMEOUT_S = 0.3
+NEVER_BLOCKS_S = 0.15
+
+
+class Sampler:
+    """Calls backend.read() every 2 ms in a thread, like the node's timer, and keeps the samples.
+
+    Also records the longest time any read()/status() call took.
+    """
+
+    def __init__(self, backend) -> None:
+        """Start sampling."""
+        self.backend = backend
+        self.samples = []
+        self.levels = []
+        self.slowest_call_s = 0.0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        count = 0
+        while not self._stop.is_set():
+            start = time.monotonic()
+            sample = self.backend.read()
+            if count % 10 == 0:
+                self.levels.append(self.backend.status()[0])
+            self.slowest_call_s = max(self.slowest_call_s, time.monotonic() - start)
+            if sample is not None:
+                self.samples.append(sample)
+            count += 1
+            time.sleep(0.002)
+
+    def angle(self) -> float:
+        """The latest published angle (0 before the first sample)."""
+        return self.samples[-1].angle_rad if self.samples else 0.0
+
+    def stop(self) -> None:
+        """Stop sampling."""
+        self._stop.set()
+        self._thread.join(2.0)
+
+
+@pytest.fixture
+def sampler():
+    """``sampler(backend)``: a running Sampler, stopped at teardown."""
+    made = []
+
+    def make(backend) -> Sampler:
+        made.append(Sampler(backend))
+        return made[-1]
+
+    yield make
+    for item in made:
+        item.stop()
+
+
+def assert_no_jump(samples, max_speed_rad_s: float = 20.0, counts: int = 2048) -> None:
+    """The one-way motor's angle never moves faster than it can, nor back beyond jitter.
+
+    A corrupt reading within the standstill jitter allowance (2 counts) may pass as motion and
+    be taken back at the next reading; anything larger must not.
+    """
+    assert samples, "no samples"
+    jitter_rad = 2 * 2 * math.pi / counts + 1e-9
+    for before, after in zip(samples, samples[1:], strict=False):
+        step = after.angle_rad - before.angle_rad
+        elapsed = after.monotonic_s - before.monotonic_s
+        assert after.monotonic_s > before.monotonic_s, "samples out of order or repeated"
+        assert step >= -jitter_rad, f"angle went back by {-step:.4f} rad"
+        assert step <= 2 * max_speed_rad_s * (elapsed + 0.05), f"angle jumped by {step:.3f} rad"
+
+
+def level(backend) -> int:
+    """status() level."""
+    return backend.status()[0]
+
+
+def counter(backend, name: str) -> int:
+    """One of status()'s counters (0 when absent)."""
+    return int(backend.status()[2].get(name, "0") or 0)
+
+
+# --- normal operation ---------------------------------------------------------------------------
+
+
+def test_polls_commands_reports_and_stops_on_close(fake_board, serial_backend, sampler, wait_until):
+    """Connects (OK), moves at the commanded speed, returns each sample once, m 0 0 on close."""
+    board = fake_board(counts_per_revolution=2048)
+    backend = serial_backend(board.link, poll_rate_hz=100.0, counts_per_revolution=2048)
+    wait_until(lambda: level(backend) == 0, 3.0, "status OK")
+    samples = sampler(backend)
+    backend.set_speed(4.0)
+    wait_until(lambda: samples.angle() > 1.5, 3.0, "the angle to advance")
+    assert "m 43 0" in board.commands("m")  # round(4 rad/s * 2048 / 2pi * 0.033 s)
+    expected_speed = 43 * 2 * math.pi / 2048 / 0.033
+    assert samples.samples[-1].velocity_rad_s == pytest.approx(expected_speed, rel=0.05)
+    _, message, values = backend.status()
+    assert "connected" in message and values["target_ticks_per_frame"] == "43"
+    assert 0.0 < float(values["poll_rate_hz"]) <= 130.0  # the rate itself: bench_serial.py
+    assert_no_jump(samples.samples)
+    # read() hands out each sample once.
+    seen = {id(s) for s in samples.samples}
+    assert len(seen) == len(samples.samples)
+    samples.stop()
+    backend.close()
+    assert board.commands("m")[-1] == "m 0 0"
+    assert backend.status()[2]["final_stop"] == "acknowledged"
+    assert backend.status()[0] == 2 and "closed" in backend.status()[1]
+
+
+def test_right_channel_and_pid_rate(fake_board, serial_backend, wait_until):
+    """The speed goes to the configured channel in ticks of the configured PID frame."""
+    board = fake_board(pid_rate_hz=50, counts_per_revolution=1000, gear_ratio=2.0)
+    backend = serial_backend(
+        board.link, channel="right", pid_rate_hz=50, counts_per_revolution=1000, gear_ratio=2.0
+    )
+    wait_until(lambda: level(backend) == 0, 3.0, "status OK")
+    backend.set_speed(2 * math.pi)  # one carrier turn per second = 2000 counts/s = 40 per 20 ms
+    wait_until(lambda: "m 0 40" in board.commands("m"), 2.0, "m 0 40")
+    wait_until(lambda: board.board.firmware.encoder(1) > 200, 2.0, "the right motor to turn")
+    assert board.board.firmware.encoder(0) == 0
+
+
+def test_resend_beats_the_auto_stop_and_stop_is_not_resent(fake_board, serial_backend, wait_until):
+    """Motion lasts beyond the board's 2 s auto-stop; after stop() only one m 0 0 is sent."""
+    board = fake_board()
+    backend = serial_backend(board.link, resend_period_s=0.3)
+    wait_until(lambda: level(backend) == 0, 3.0, "status OK")
+    backend.set_speed(4.0)
+    started = time.monotonic()
+    wait_until(lambda: time.monotonic() - started > 2.4, 3.0, "2.4 s of commanded motion")
+    firmware = board.board.firmware
+    assert firmware.moving and firmware.motors[0].target_rad_s > 3.9, "the board auto-stopped"
+    times = [t for t, text in list(board.board.commands) if text == "m 43 0"]
+    assert len(times) >= 7
+    assert max(b - a for a, b in zip(times, times[1:], strict=False)) < 1.0
+    backend.stop()
+    wait_until(lambda: board.commands("m")[-1] == "m 0 0", 1.0, "m 0 0")
+    count = len(board.commands("m"))
+    stopped = time.monotonic()
+    wait_until(lambda: time.monotonic() - stopped > 0.7, 1.0, "0.7 s")
+    assert len(board.commands("m")) == count, "a zero speed was re-sent"
+    assert firmware.motors[0].target_rad_s == 0.0
+
+
+# --- faults ----------------------------------------------------------------------------------
+
+
+def test_device_missing_at_start_is_retried_with_bounded_backoff(
+    fake_board, serial_backend, tmp_path, wait_until
+):
+    """No device: ERROR naming the cause, retries at most reconnect_max_s apart, then OK."""
+    link = tmp_path / "later"
+    backend = serial_backend(link, **FAST_RECONNECT)
+    wait_until(lambda: counter(backend, "port_missing") >= 4, 3.0, "4 open attempts")
+    level_now, message, _ = backend.status()
+    assert level_now == 2 and "does not exist" in message
+    assert backend.read() is None
+    # Bounded backoff: 5 more attempts take about 5 x 0.2 s; doubling without a bound would
+    # take 0.8 + 1.6 + 3.2 + ... s.
+    before = counter(backend, "port_missing")
+    wait_until(lambda: counter(backend, "port_missing") >= before + 5, 2.5, "5 more attempts")
+    fake_board(link=link)
+    wait_until(lambda: level(backend) == 0, 2.0, "status OK once the board appears")
+    wait_until(lambda: backend.read() is not None, 1.0, "a sample")
+
+
+def test_unplug_and_replug(fake_board, serial_backend, sampler, wait_until):
+    """The path vanishes: ERROR, no samples; it comes back (a reset board): OK, no angle jump."""
+    board = fake_board()
+    backend = serial_backend(board.link, **FAST_RECONNECT)
+    wait_until(lambda: level(backend) == 0, 3.0, "status OK")
+    samples = sampler(backend)
+    backend.set_speed(6.0)
+    wait_until(lambda: samples.angle() > 2.0, 3.0, "motion")
+    board.board.unplug()
+    wait_until(lambda: level(backend) == 2, 1.0, "ERROR after the unplug")
+    held = samples.angle()
+    count = len(samples.samples)
+    assert "link lost" in backend.status()[1] or "does not exist" in backend.status()[1]
+    board.board.replug()
+    wait_until(lambda: level(backend) == 0, 2.0, "OK after the replug")
+    wait_until(lambda: samples.angle() > held + 2.0, 3.0, "motion after the replug")
+    after = samples.samples[count]
+    assert abs(after.angle_rad - held) < 0.05, "the angle jumped across the replug"
+    assert_no_jump(samples.samples)
+    values = backend.status()[2]
+    assert int(values["disconnects"]) >= 1 and int(values["reconnects"]) >= 1
+    assert int(values["board_resets"]) >= 1  # the replugged board started from 0
+
+
+def test_board_process_killed_and_restarted_at_the_same_link(
+    board_process, serial_backend, sampler, tmp_path, wait_until
+):
+    """fishtail-fake-board killed (an abrupt unplug), a new one at the same link: recovers."""
+    link = tmp_path / "tty"
+    first = board_process(link)
+    first.next_path()
+    backend = serial_backend(link, **FAST_RECONNECT)
+    wait_until(lambda: level(backend) == 0, 5.0, "status OK")
+    samples = sampler(backend)
+    backend.set_speed(5.0)
+    wait_until(lambda: samples.angle() > 1.0, 3.0, "motion")
+    first.kill(signal.SIGKILL)
+    wait_until(lambda: level(backend) == 2, 2.0, "ERROR after the kill")
+    held = samples.angle()
+    second = board_process(link)
+    second.next_path()
+    wait_until(lambda: level(backend) == 0, 5.0, "OK with the new board")
+    wait_until(lambda: samples.angle() > held + 1.0, 3.0, "motion with the new board")
+    assert_no_jump(samples.samples)
+
+
+def test_dropped_replies_are_timeouts_and_the_link_survives(
+    fake_board, serial_backend, sampler, wait_until
+):
+    """Lost commands/replies: counted timeouts, WARN, still connected, still moving.
+
+    The node-facing calls stay fast while the I/O thread waits out each timeout.
+    """
+    board = fake_board(drop_rate=0.15, seed=1)
+    backend = serial_backend(board.link, read_timeout_s=SLOW_READ_TIMEOUT_S, stale_timeout_s=2.0)
+    wait_until(lambda: level(backend) < 2, 5.0, "connected")
+    samples = sampler(backend)
+    backend.set_speed(4.0)
+    wait_until(lambda: counter(backend, "timeouts") >= 3 and samples.angle() > 1.0, 8.0,
+               "3 timeouts and motion")  # fmt: skip
+    assert 1 in samples.levels and 2 not in samples.levels
+    assert "no reply to" in backend.status()[2]["last_fault"]
+    assert_no_jump(samples.samples)
+    assert samples.slowest_call_s < NEVER_BLOCKS_S
+
+
+def test_slow_board_within_the_read_timeout_is_fine(fake_board, serial_backend, wait_until):
+    """A 20 ms reply delay under a 100 ms timeout: no faults, just a lower poll rate."""
+    board = fake_board(delay_ms=20.0)
+    backend = serial_backend(board.link, read_timeout_s=0.1)
+    wait_until(lambda: counter(backend, "polls") >= 20, 3.0, "20 polls")
+    values = backend.status()[2]
+    assert level(backend) == 0 and values["last_fault"] == ""
+    assert float(values["poll_rate_hz"]) < 52.0
+
+
+def test_unresponsive_board_is_an_error_until_it_answers(fake_board, serial_backend, wait_until):
+    """Replies later than the timeout: the handshake fails, ERROR says so, retries go on."""
+    board = fake_board(delay_ms=300.0)
+    backend = serial_backend(
+        board.link, read_timeout_s=0.05, handshake_timeout_s=0.4, stale_timeout_s=0.3,
+        **FAST_RECONNECT,
+    )  # fmt: skip
+    wait_until(lambda: counter(backend, "handshake_failures") >= 2, 4.0, "2 failed handshakes")
+    level_now, message, _ = backend.status()
+    assert level_now == 2 and ("did not answer" in message or "not 'e' in step" in message)
+    assert counter(backend, "connects") == 0, "late replies were taken for a healthy board"
+    assert backend.read() is None
+
+
+def test_garbled_partial_oversized_binary_and_invalid_replies(
+    fake_board, serial_backend, sampler, wait_until
+):
+    """Every kind of corrupt exchange is detected and counted; the angle never jumps."""
+    board = fake_board(garble_rate=0.25, seed=3)
+    backend = serial_backend(board.link, read_timeout_s=0.05, poll_rate_hz=200.0)
+    wait_until(lambda: level(backend) < 2, 3.0, "connected")
+    samples = sampler(backend)
+    backend.set_speed(5.0)
+    kinds = ("garbled", "binary", "oversized", "partial_replies", "invalid_command")
+    wait_until(lambda: all(counter(backend, kind) >= 1 for kind in kinds), 8.0,
+               f"each of {kinds}")  # fmt: skip
+    wait_until(lambda: samples.angle() > 2.0, 3.0, "motion")
+    assert 2 not in samples.levels, "a garbled reply dropped the link"
+    assert_no_jump(samples.samples)
+    garbled = sum(board.board.counts[f"garble_{k}"] for k in ("flip", "truncate", "binary"))
+    assert garbled > 0
+
+
+def test_invalid_command_for_every_request_is_reported(fake_board, serial_backend, wait_until):
+    """A board that answers Invalid Command to e (no USE_BASE): not trusted, ERROR with reason."""
+    board = fake_board(garble_rate=1.0, seed=5)
+    board.board.rng.choice = lambda kinds: "invalid"  # every exchange: Invalid Command
+    backend = serial_backend(
+        board.link, handshake_timeout_s=0.3, stale_timeout_s=0.3, **FAST_RECONNECT
+    )
+    wait_until(lambda: counter(backend, "invalid_command") >= 3, 3.0, "Invalid Command counted")
+    wait_until(lambda: counter(backend, "handshake_failures") >= 1, 3.0, "handshake failure")
+    assert level(backend) == 2 and "answers 'b' but not 'e'" in backend.status()[1]
+
+
+def test_board_reset_while_running(fake_board, serial_backend, sampler, wait_until):
+    """Counts fall back to 0 mid-run: counted as a reset, WARN, no jump, the speed is re-sent."""
+    board = fake_board(boot_ms=150.0)
+    backend = serial_backend(board.link, resend_period_s=1.5)
+    wait_until(lambda: level(backend) == 0, 3.0, "status OK")
+    samples = sampler(backend)
+    backend.set_speed(6.0)
+    wait_until(lambda: samples.angle() > 2.0, 3.0, "motion")
+    board.board.reset()
+    wait_until(lambda: counter(backend, "board_resets") >= 1, 2.0, "the reset detected")
+    assert level(backend) == 1 and "board_reset" in backend.status()[2]["last_fault"]
+    held = samples.angle()
+    # The board lost its target in the reset; it is moving again well before the 1.5 s resend.
+    wait_until(lambda: board.board.firmware.moving, 1.0, "the speed re-sent")
+    wait_until(lambda: samples.angle() > held + 1.0, 3.0, "motion after the reset")
+    assert_no_jump(samples.samples)
+
+
+def test_counter_wrap_is_continuous(fake_board, serial_backend, sampler, wait_until):
+    """Counts crossing INT32_MAX -> INT32_MIN keep the angle continuous and correct."""
+    board = fake_board(encoder_offset=INT32_MAX - 3000, counts_per_revolution=2048)
+    backend = serial_backend(board.link)
+    wait_until(lambda: level(backend) == 0, 3.0, "status OK")
+    samples = sampler(backend)
+    backend.set_speed(15.0)
+    wait_until(lambda: counter(backend, "encoder_wraps") >= 1, 3.0, "the wrap")
+    wait_until(lambda: samples.angle() > 15.0, 3.0, "motion past the wrap")
+    assert_no_jump(samples.samples)
+    board_counts = board.board.firmware.motors[0].encoder_counts()
+    assert samples.angle() == pytest.approx(board_counts * 2 * math.pi / 2048, abs=1.0)
+
+
+def test_cli_fault_switches_disconnect_and_reset(
+    board_process, serial_backend, sampler, tmp_path, wait_until
+):
+    """--disconnect-after-s and --reset-after-s of fishtail-fake-board, end to end."""
+    link = tmp_path / "tty"
+    log = tmp_path / "board.log"
+    process = board_process(
+        link, "--disconnect-after-s", "1.0", "--disconnect-for-s", "0.4",
+        "--reset-after-s", "2.2", "--boot-ms", "100", log=log,
+    )  # fmt: skip
+    first = process.next_path()
+    backend = serial_backend(link, **FAST_RECONNECT)
+    samples = sampler(backend)
+    backend.set_speed(5.0)
+    second = process.next_path(5.0)  # announced again after the scheduled replug
+    assert first.startswith("/dev/pts/") and second.startswith("/dev/pts/")
+    wait_until(lambda: counter(backend, "reconnects") >= 1, 3.0, "the reconnect")
+    wait_until(lambda: counter(backend, "board_resets") >= 2, 3.0, "replug and scheduled reset")
+    wait_until(lambda: level(backend) < 2 and samples.angle() > 3.0, 3.0, "motion after")
+    assert 2 in samples.levels
+    assert_no_jump(samples.samples)
+    text = log.read_text()
+    assert "# unplug (scheduled)" in text and "# reset (scheduled)" in text
