@@ -319,13 +319,18 @@ class DriverNode(Node):
         self.get_logger().info("motor commanded to stop; driver exiting")
 
 
-def spin_until_signal(node: Node) -> None:
-    """Spin ``node`` on an EventsExecutor until SIGINT or SIGTERM."""
-    from rclpy.experimental import EventsExecutor
-
+def install_stop_handlers() -> threading.Event:
+    """An event set by SIGINT or SIGTERM; installed before anything slow, so no signal is missed."""
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
+    return stop
+
+
+def spin_until_signal(node: Node, stop: threading.Event) -> None:
+    """Spin ``node`` on an EventsExecutor until ``stop`` is set."""
+    from rclpy.experimental import EventsExecutor
+
     executor = EventsExecutor()
     executor.add_node(node)
     try:
@@ -338,6 +343,7 @@ def spin_until_signal(node: Node) -> None:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run fishtail_driver driver``."""
+    stop = install_stop_handlers()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = DriverNode()
@@ -346,7 +352,7 @@ def main(args: list[str] | None = None) -> int:
         rclpy.shutdown()
         return 2
     try:
-        spin_until_signal(node)
+        spin_until_signal(node, stop)
     finally:
         node.shutdown()
         node.destroy_node()

@@ -71,6 +71,7 @@ def run_node(node_class, label: str, startup_errors: tuple[type[Exception], ...]
     A node that cannot start because of bad parameters (``startup_errors``) prints one line and
     returns 2 instead of a traceback.
     """
+    stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = node_class()
@@ -79,20 +80,25 @@ def run_node(node_class, label: str, startup_errors: tuple[type[Exception], ...]
         rclpy.try_shutdown()
         return 2
     try:
-        spin_until_signal(node)
+        spin_until_signal(node, stop)
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
 
 
-def spin_until_signal(node: Node) -> None:
-    """Spin ``node`` on an EventsExecutor until SIGINT or SIGTERM, then return."""
-    from rclpy.experimental import EventsExecutor
-
+def install_stop_handlers() -> threading.Event:
+    """An event set by SIGINT or SIGTERM; installed before anything slow, so no signal is missed."""
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
+    return stop
+
+
+def spin_until_signal(node: Node, stop: threading.Event) -> None:
+    """Spin ``node`` on an EventsExecutor until ``stop`` is set, then return."""
+    from rclpy.experimental import EventsExecutor
+
     executor = EventsExecutor()
     executor.add_node(node)
     try:
