@@ -27,6 +27,7 @@ setup(
     entry_points={
         "console_scripts": [
             "fishtail-run = fishtail_bringup.run:main",
+            "fishtail-record = fishtail_bringup.record:main",
         ],
     },
 )

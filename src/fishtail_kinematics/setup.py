@@ -24,6 +24,7 @@ setup(
             "node = fishtail_kinematics.node:main",
             "monitor = fishtail_kinematics.monitor_node:main",
             "fishtail-kinematics = fishtail_kinematics.cli:main",
+            "fishtail-analyse = fishtail_kinematics.analyse_cli:main",
         ],
     },
 )

@@ -29,6 +29,7 @@ from std_msgs.msg import Float64
 
 from fishtail_kinematics.ros_common import diagnostic_array, float_descriptor, run_node
 from fishtail_kinematics.swimming import (
+    SWIMMING_PARAMETERS,
     SwimmingParameters,
     TipKinematics,
     TipSampleBuffer,
@@ -47,11 +48,7 @@ _LEVEL_STALE = 3
 _TOLERANCE_NAMES = tuple(f.name for f in SymmetryTolerances.__dataclass_fields__.values())
 # Speeds below this are "not commanded" (a beat would take longer than ~2 minutes).
 _MIN_COMMANDED_SPEED_RAD_S = 0.05
-_SWIMMING_PARAMETERS = {
-    "forward_speed_m_s": (0.3, "forward speed U assumed for St and thrust [m/s]", 1e-3, 20.0),
-    "fin_span_m": (0.1, "fin span s at the trailing edge (the tip) [m]", 1e-3, 5.0),
-    "water_density_kg_m3": (1000.0, "water density rho [kg/m^3]", 1.0, 2000.0),
-}
+_SWIMMING_PARAMETERS = SWIMMING_PARAMETERS
 
 
 class MonitorNode(Node):

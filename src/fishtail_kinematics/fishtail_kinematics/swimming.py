@@ -47,6 +47,15 @@ from fishtail_kinematics.symmetry import BeatStatistics, beats_of
 EFFICIENT_STROUHAL_RANGE = (0.2, 0.4)
 
 
+#: The parameters the monitor node declares and the analysis accepts, written once:
+#: name -> (default, description, minimum, maximum).
+SWIMMING_PARAMETERS = {
+    "forward_speed_m_s": (0.3, "forward speed U assumed for St and thrust [m/s]", 1e-3, 20.0),
+    "fin_span_m": (0.1, "fin span s at the trailing edge (the tip) [m]", 1e-3, 5.0),
+    "water_density_kg_m3": (1000.0, "water density rho [kg/m^3]", 1.0, 2000.0),
+}
+
+
 @dataclasses.dataclass(frozen=True)
 class SwimmingParameters:
     """What the tail's motion does not tell: forward speed U, fin span s, water density rho.
