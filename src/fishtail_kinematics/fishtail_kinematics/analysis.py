@@ -571,19 +571,26 @@ def beat_table(
     tolerances: SymmetryTolerances,
     hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD,
     gap_reset_s: float = DEFAULT_GAP_RESET_S,
+    carrier_rad: np.ndarray | None = None,
 ) -> list[JudgedBeat]:
     """Per-beat statistics and verdicts; a gap longer than ``gap_reset_s`` restarts the beat.
 
-    Same code path as the monitor: :func:`beats_of` (its :class:`BeatTracker`) and :func:`judge`.
+    Same code path as the monitor: :func:`beats_of` (its :class:`BeatTracker`) and :func:`judge`,
+    weighted by the carrier angle when it is given, as the monitor does.
     """
     stamp_s = np.asarray(stamp_s, float)
     theta3 = np.asarray(theta3, float)
     if stamp_s.size == 0:
         return []
+    carrier = np.asarray(stamp_s if carrier_rad is None else carrier_rad, float)
     breaks = np.flatnonzero(np.diff(stamp_s) > gap_reset_s) + 1
     judged = []
-    for times, values in zip(np.split(stamp_s, breaks), np.split(theta3, breaks), strict=True):
-        for beat in beats_of(times, values, hysteresis_rad):
+    pieces = zip(
+        np.split(stamp_s, breaks), np.split(theta3, breaks), np.split(carrier, breaks), strict=True
+    )
+    for times, values, carriers in pieces:
+        weights = None if carrier_rad is None else carriers
+        for beat in beats_of(times, values, hysteresis_rad, weights):
             beat = dataclasses.replace(beat, index=len(judged))
             verdict, reason = judge(beat, tolerances)
             judged.append(JudgedBeat(beat, verdict, reason))
@@ -656,7 +663,10 @@ def analyse(
         times, theta3 = _periodic_extension(recording, recording.carrier_velocity[0])
         beats = beat_table(times, theta3, tolerances, hysteresis, math.inf)[:1]
     else:
-        beats = beat_table(recording.stamp_s, source["theta3"], tolerances, hysteresis, gap)
+        beats = beat_table(
+            recording.stamp_s, source["theta3"], tolerances, hysteresis, gap,
+            recording.carrier_angle,
+        )  # fmt: skip
 
     figures = write_figures(recording, source, geometry, output_dir)
     report = Report(recording, geometry, geometry_source, disagreement, beats, figures)

@@ -131,7 +131,8 @@ class MonitorNode(Node):
         self.tolerances = tolerances
         self.swimming_parameters = swimming
         if "hysteresis_rad" in changed:
-            self.tracker = BeatTracker(changed["hysteresis_rad"])
+            # Takes effect at the next arming; the beat count and the beat in progress stay.
+            self.tracker.hysteresis_rad = changed["hysteresis_rad"]
         return SetParametersResult(successful=True)
 
     def _on_command(self, message: Float64) -> None:
@@ -169,7 +170,7 @@ class MonitorNode(Node):
             else message.theta3
         )
         self.tip_samples.add(time_s, message.tip.y, message.tip_velocity.y, fin_angle)
-        beat = self.tracker.add(time_s, message.theta3)
+        beat = self.tracker.add(time_s, message.theta3, message.motor_angle)
         if beat is not None:
             self.last_tip_kinematics = self.tip_samples.complete(beat)
             self._publish_beat(beat, stamp)

@@ -6,8 +6,14 @@ split beats. Crossing times are interpolated linearly between samples, and so ar
 so the statistics do not depend on the sample rate to first order.
 
 A symmetric linkage spends exactly half of each beat on each side (theta3 = 0 at mid-stroke), so
-the time share is the sharpest detector of a skewed geometry; the time-mean of theta3 is not zero
-even for the symmetric one (theta3 is not odd in OP) and gets a looser tolerance.
+the share is the sharpest detector of a skewed geometry; the mean of theta3 is not zero even for
+the symmetric one (theta3 is not odd in OP) and gets a looser tolerance.
+
+Shares and the mean are integrals over the beat. Given the carrier angle with each sample, the
+tracker integrates over the carrier angle instead of time: then a motor whose speed ripples
+within a revolution (a board's PID, a noisy load) does not look like a skewed linkage, and the
+verdict depends on the geometry alone. At constant speed both are the same; without the carrier
+angle the integrals are over time. Period and frequency always come from time.
 
 >>> import math
 >>> tracker = BeatTracker()
@@ -113,10 +119,11 @@ def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict
     verdict = Verdict.OK
     failures = []
     for name, value, warn, error, text, limit_text in measures:
-        if abs(value) > error:
+        # Written as "not <=" so that an undefined (NaN) figure is an error, never a pass.
+        if not abs(value) <= error:
             verdict = Verdict.ERROR
             failures.append(f"{name} off: {text}, limit {limit_text(error)}")
-        elif abs(value) > warn:
+        elif not abs(value) <= warn:
             verdict = max(verdict, Verdict.WARN)
             failures.append(f"{name} off: {text}, limit {limit_text(warn)}")
     if not failures:
@@ -146,10 +153,12 @@ class BeatTracker:
         self._last_value = 0.0
         self._armed = False
         self._in_beat = False
-        self._reset_beat(0.0)
+        self._last_coordinate = 0.0
+        self._reset_beat(0.0, 0.0)
 
-    def _reset_beat(self, start_s: float) -> None:
+    def _reset_beat(self, start_s: float, start_coordinate: float) -> None:
         self._start = start_s
+        self._start_coordinate = start_coordinate
         self._maximum = -math.inf
         self._minimum = math.inf
         self._integral = 0.0
@@ -161,33 +170,46 @@ class BeatTracker:
         self._armed = False
         self._in_beat = False
 
-    def add(self, time_s: float, theta3: float) -> BeatStatistics | None:
-        """Add one sample; return the beat it completes, if any."""
-        if not (math.isfinite(time_s) and math.isfinite(theta3)):
+    def add(
+        self, time_s: float, theta3: float, carrier_rad: float | None = None
+    ) -> BeatStatistics | None:
+        """Add one sample; return the beat it completes, if any.
+
+        ``carrier_rad`` (the unwrapped carrier angle of the sample) makes the shares and the mean
+        carrier-angle weighted; give it with every sample or with none.
+        """
+        coordinate = time_s if carrier_rad is None else carrier_rad
+        if not (math.isfinite(time_s) and math.isfinite(theta3) and math.isfinite(coordinate)):
             self.rejected_samples += 1
             return None
         previous_time = self._last_time
         if previous_time is None:
             self._last_time, self._last_value = time_s, theta3
+            self._last_coordinate = coordinate
             self._armed = theta3 < -self.hysteresis_rad
             return None
         if time_s <= previous_time:
             self.rejected_samples += 1
             return None
         previous = self._last_value
+        previous_coordinate = self._last_coordinate
         self._last_time, self._last_value = time_s, theta3
+        self._last_coordinate = coordinate
         completed = None
         if self._armed and previous < 0.0 <= theta3:
-            crossing = previous_time + (time_s - previous_time) * (-previous) / (theta3 - previous)
+            fraction = -previous / (theta3 - previous)
+            crossing = previous_time + (time_s - previous_time) * fraction
+            step = coordinate - previous_coordinate
+            crossing_coordinate = previous_coordinate + step * fraction
             if self._in_beat:
-                self._accumulate(previous_time, previous, crossing, 0.0)
-                completed = self._finish(crossing)
+                self._accumulate(previous_coordinate, previous, crossing_coordinate, 0.0)
+                completed = self._finish(crossing, crossing_coordinate)
             self._in_beat = True
             self._armed = False
-            self._reset_beat(crossing)
-            self._accumulate(crossing, 0.0, time_s, theta3)
+            self._reset_beat(crossing, crossing_coordinate)
+            self._accumulate(crossing_coordinate, 0.0, coordinate, theta3)
         elif self._in_beat:
-            self._accumulate(previous_time, previous, time_s, theta3)
+            self._accumulate(previous_coordinate, previous, coordinate, theta3)
         if theta3 < -self.hysteresis_rad:
             self._armed = True
         return completed
@@ -210,16 +232,20 @@ class BeatTracker:
             positive_end = v0 if v0 >= 0.0 else v1
             self._positive_time += dt * positive_end / (abs(v0) + abs(v1))
 
-    def _finish(self, end_s: float) -> BeatStatistics:
+    def _finish(self, end_s: float, end_coordinate: float) -> BeatStatistics:
         period = end_s - self._start
-        positive_share = self._positive_time / period
+        measure = end_coordinate - self._start_coordinate
+        if not measure > 0.0:
+            # A carrier angle that did not advance over a whole beat is not a usable weight.
+            measure, self._integral, self._positive_time = period, math.nan, math.nan
+        positive_share = self._positive_time / measure
         beat = BeatStatistics(
             index=self.beats_completed,
             start_s=self._start,
             end_s=end_s,
             positive_peak_rad=self._maximum,
             negative_peak_rad=self._minimum,
-            mean_angle_rad=self._integral / period,
+            mean_angle_rad=self._integral / measure,
             positive_time_share=positive_share,
             negative_time_share=1.0 - positive_share,
         )
@@ -227,12 +253,15 @@ class BeatTracker:
         return beat
 
 
-def beats_of(time_s, theta3, hysteresis_rad: float = 0.01) -> list[BeatStatistics]:
+def beats_of(
+    time_s, theta3, hysteresis_rad: float = 0.01, carrier_rad=None
+) -> list[BeatStatistics]:
     """All complete beats of a recorded series (the same code path as the live monitor)."""
     tracker = BeatTracker(hysteresis_rad)
     beats = []
-    for t, value in zip(time_s, theta3, strict=True):
-        beat = tracker.add(float(t), float(value))
+    carriers = [None] * len(time_s) if carrier_rad is None else carrier_rad
+    for t, value, carrier in zip(time_s, theta3, carriers, strict=True):
+        beat = tracker.add(float(t), float(value), None if carrier is None else float(carrier))
         if beat is not None:
             beats.append(beat)
     return beats

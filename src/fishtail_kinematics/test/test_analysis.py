@@ -190,11 +190,13 @@ def test_bag_agrees_with_engine_and_is_symmetric(store, tmp_path, capsys, storag
 
 
 def test_table_is_the_monitors_statistics(store, tmp_path):
-    """The analysis's beats are beats_of + judge on the stamps and the recorded theta3."""
+    """The analysis's beats are beats_of + judge on the stamps, theta3 and carrier angle."""
     bag = write_bag(store, tmp_path / "bag", config=skewed_config(tmp_path))
     report = analysis.analyse(bag, config=skewed_config(tmp_path), output_dir=tmp_path / "f")
     recording = report.recording
-    expected = beats_of(recording.stamp_s, recording.state["theta3"])
+    expected = beats_of(
+        recording.stamp_s, recording.state["theta3"], carrier_rad=recording.carrier_angle
+    )
     assert [j.beat for j in report.beats] == expected
     tolerances = SymmetryTolerances()
     assert [(j.verdict, j.reason) for j in report.beats] == [judge(b, tolerances) for b in expected]

@@ -130,3 +130,31 @@ def test_tolerances_refuse_nonsense(kwargs):
 def test_hysteresis_must_be_non_negative():
     with pytest.raises(ValueError, match="hysteresis_rad"):
         BeatTracker(-0.1)
+
+
+def test_carrier_weighting_keeps_speed_ripple_out_of_the_verdict():
+    # The symmetric linkage driven at a speed that ripples once per revolution (a PID or a load
+    # that is not constant): in time the tail lingers on one side, over the carrier it does not.
+    tail = OscillatoryTail(OscillatoryGeometry())
+    time_s = np.arange(0.0, 10.0, 0.005)
+    carrier = 4.0 * time_s + 0.15 * np.sin(4.0 * time_s)
+    theta3 = tail.solve(carrier, 4.0).theta3
+    tolerances = SymmetryTolerances()
+    by_time = beats_of(time_s, theta3)
+    by_carrier = beats_of(time_s, theta3, carrier_rad=carrier)
+    assert len(by_time) == len(by_carrier) >= 5
+    assert all(judge(beat, tolerances)[0] != Verdict.OK for beat in by_time)
+    for beat in by_carrier:
+        assert judge(beat, tolerances)[0] == Verdict.OK
+        assert beat.positive_time_share == pytest.approx(0.5, abs=1e-4)
+        # Period and frequency still come from time.
+        assert beat.period_s == pytest.approx(2 * math.pi / 4.0, rel=0.02)
+
+
+def test_a_carrier_that_does_not_advance_is_an_error_not_a_pass():
+    tracker = BeatTracker()
+    time_s, theta3 = biased_sine(0.4, 0.0, 1.0, 200.0, 3.5)
+    beats = [tracker.add(float(t), float(v), 0.0) for t, v in zip(time_s, theta3, strict=True)]
+    completed = [b for b in beats if b is not None]
+    assert completed
+    assert all(judge(beat, SymmetryTolerances())[0] == Verdict.ERROR for beat in completed)
