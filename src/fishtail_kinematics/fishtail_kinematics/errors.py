@@ -21,6 +21,10 @@ class PinOffsetError(FishtailKinematicsError):
     """The pin U of the undulatory mechanism lies outside 0 < SU < SW - VW."""
 
 
+class InvalidInputError(FishtailKinematicsError):
+    """A carrier angle or speed given to a solver is NaN or infinite."""
+
+
 class SolverError(FishtailKinematicsError):
     """The undulatory loop did not close to tolerance (a geometry at or near a toggle pose)."""
 

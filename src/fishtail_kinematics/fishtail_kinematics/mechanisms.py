@@ -30,6 +30,7 @@ import numpy as np
 
 from fishtail_kinematics.errors import (
     AssemblyError,
+    InvalidInputError,
     InvalidLengthError,
     PinOffsetError,
     SolverError,
@@ -168,11 +169,24 @@ class UndulatoryState(NamedTuple):
     theta5_dot: float | np.ndarray
 
 
+def _check_finite_scalars(phi: float, phi_dot: float) -> None:
+    if not (math.isfinite(phi) and math.isfinite(phi_dot)):
+        raise InvalidInputError(f"carrier angle {phi!r} and speed {phi_dot!r} must be finite")
+
+
 def _zero_dimensional_safe(solver, motor_angle, motor_velocity):
-    # The array paths work in place (out=...), which numpy refuses for 0-d results: solve those
-    # as one-element arrays and hand back 0-d arrays.
+    # Non-finite input is refused rather than turned into NaN output. The array paths work in
+    # place (out=...), which numpy refuses for 0-d results: solve those as one-element arrays and
+    # hand back 0-d arrays.
     phi = np.asarray(motor_angle, float)
     phi_dot = np.asarray(motor_velocity, float)
+    for name, values in (("carrier angle", phi), ("carrier speed", phi_dot)):
+        if not np.isfinite(values).all():
+            bad = np.flatnonzero(~np.isfinite(values.ravel()))
+            raise InvalidInputError(
+                f"{bad.size} non-finite {name} value(s), the first at flat index {bad[0]}: "
+                f"{values.ravel()[bad[0]]!r}"
+            )
     if phi.ndim or phi_dot.ndim:
         return solver(phi, phi_dot)
     state = solver(phi.reshape(1), phi_dot.reshape(1))
@@ -275,7 +289,9 @@ class OscillatoryTail:
         Floats take the scalar path; anything else is treated as arrays and broadcast together.
         """
         if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
-            return self._solve_scalar(float(motor_angle), float(motor_velocity))
+            phi, phi_dot = float(motor_angle), float(motor_velocity)
+            _check_finite_scalars(phi, phi_dot)
+            return self._solve_scalar(phi, phi_dot)
         return _zero_dimensional_safe(self._solve_array, motor_angle, motor_velocity)
 
     def _solve_scalar(self, phi: float, phi_dot: float) -> OscillatoryState:
@@ -496,24 +512,33 @@ class UndulatoryTail:
         a = 0.0
         for coefficient in self._seed_coefficients:
             a = a * theta3 + coefficient
-        residual, slope = self._residual_and_slope(a, cos3, sin3)
-        for _ in range(_MAX_NEWTON_STEPS):
-            a -= residual / slope
-            residual, slope = self._residual_and_slope(a, cos3, sin3)
-            if abs(residual) < self._residual_tolerance:
+        # The per-message path: _residual_and_slope inlined, and the last evaluation's W - V
+        # reused as VW e(theta5).
+        su, sw, av, vw = self._SU, self._SW, self._AV, self._VW
+        su_cos3, su_sin3, sw_cos3, sw_sin3 = su * cos3, su * sin3, sw * cos3, sw * sin3
+        vw_sq = vw * vw
+        slope = 0.0
+        for step in range(_MAX_NEWTON_STEPS + 1):
+            if step:
+                a -= residual / slope
+            dx = a + su_cos3
+            au = math.hypot(dx, su_sin3)
+            cos4 = dx / au
+            sin4 = su_sin3 / au
+            ex = sw_cos3 + a - av * cos4
+            ey = sw_sin3 - av * sin4
+            residual = ex * ex + ey * ey - vw_sq
+            if step and abs(residual) < self._residual_tolerance:
                 break
+            lever = av * sin4 / au
+            slope = 2.0 * (ex * (1.0 - lever * sin4) + ey * lever * cos4)
         else:
             raise SolverError(
                 f"mechanism 2 loop does not close at theta3 = {theta3!r} rad "
                 f"(residual {residual:.3e} m^2)"
             )
-        dx = a + self._SU * cos3
-        dy = self._SU * sin3
-        au = math.hypot(dx, dy)
-        cos4, sin4 = dx / au, dy / au
-        # W - V = VW e(theta5)
-        cos5 = (self._SW * cos3 + a - self._AV * cos4) / self._VW
-        sin5 = (self._SW * sin3 - self._AV * sin4) / self._VW
+        cos5 = ex / vw
+        sin5 = ey / vw
         rates = self._rates(d.theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
         theta4 = math.atan2(sin4, cos4)
         theta5 = math.atan2(sin5, cos5)

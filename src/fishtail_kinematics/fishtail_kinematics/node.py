@@ -208,7 +208,13 @@ class KinematicsNode(Node):
         if not (math.isfinite(angle) and math.isfinite(velocity)):
             self._reject(f"non-finite carrier angle {angle!r} or velocity {velocity!r} dropped")
             return
-        state = self.tail.solve(float(angle), float(velocity))
+        try:
+            state = self.tail.solve(float(angle), float(velocity))
+        except FishtailKinematicsError as error:
+            # Cannot happen for a validated geometry and finite input; if it does, one sample is
+            # dropped and reported rather than the node dying.
+            self._reject(f"engine refused carrier angle {angle!r}: {error}")
+            return
         self.publish_state(state, stamp)
         self.markers.latest = (state, stamp)
 

@@ -12,7 +12,12 @@ from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 
 from fishtail_kinematics.design import symmetric_rocker_link
-from fishtail_kinematics.errors import AssemblyError, InvalidLengthError, PinOffsetError
+from fishtail_kinematics.errors import (
+    AssemblyError,
+    InvalidInputError,
+    InvalidLengthError,
+    PinOffsetError,
+)
 from fishtail_kinematics.mechanisms import (
     OscillatoryGeometry,
     OscillatoryTail,
@@ -575,3 +580,15 @@ def test_undulatory_geometry_that_cannot_straighten():
         UndulatoryTail(UndulatoryGeometry(slotted_link_m=0.09))
     with pytest.raises(InvalidLengthError, match=re.escape("VW < VT")):
         UndulatoryTail(UndulatoryGeometry(fin_link_m=0.06))
+
+
+@pytest.mark.parametrize("make", [OscillatoryTail, UndulatoryTail], ids=["osc", "und"])
+@pytest.mark.parametrize(
+    ("angle", "speed"),
+    [(math.nan, 4.0), (0.3, math.inf), (np.array([0.1, math.nan, 0.3]), 4.0),
+     (np.array([0.1, 0.2]), np.array([4.0, -math.inf])), (np.array(math.nan), 4.0)],
+)  # fmt: skip
+def test_non_finite_input_is_refused_not_turned_into_nan(make, angle, speed):
+    geometry = OscillatoryGeometry() if make is OscillatoryTail else UndulatoryGeometry()
+    with pytest.raises(InvalidInputError, match="finite"):
+        make(geometry).solve(angle, speed)
