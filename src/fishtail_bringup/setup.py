@@ -15,7 +15,7 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
         # The workspace's config/ (shared with the CLI) is installed here for the launch file.
-        (f"share/{PACKAGE}/config", glob("../../config/*.yaml")),
+        (f"share/{PACKAGE}/config", glob("../../config/*.yaml") + glob("../../config/*.rviz")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

@@ -22,7 +22,7 @@ import threading
 import time
 from pathlib import Path
 
-from fishtail_bringup.console import status_line, verdict_text
+from fishtail_bringup.console import VERDICT_NAMES, status_line, verdict_text
 
 NODES = (
     ("driver", "fishtail_driver.node"),
@@ -150,8 +150,8 @@ class Supervisor:
 class Console:
     """The in-process node: commands the speed, keeps the latest values for the status line."""
 
-    def __init__(self, speed_rad_s: float, namespace: str) -> None:
-        """Create the node with its publisher and subscriptions."""
+    def __init__(self, speed_rad_s: float, namespace: str, say) -> None:
+        """Create the node with its publisher and subscriptions; ``say`` prints a line."""
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.qos import qos_profile_sensor_data
@@ -163,6 +163,7 @@ class Console:
         self.Float64 = Float64
         self.node = rclpy.create_node("fishtail_console", namespace=namespace or None)
         self.speed = speed_rad_s
+        self.say = say
         self.state = None
         self.report = None
         self.diagnostics: dict[str, tuple[int, str]] = {}
@@ -181,8 +182,15 @@ class Console:
         self.report = message
 
     def _on_diagnostics(self, message) -> None:
+        # Shown when a status changes level (and the first time, unless it is OK), so that a WARN
+        # or ERROR from any node appears above the status line once, not every second.
         for status in message.status:
-            self.diagnostics[status.name] = (status.level[0], status.message)
+            level = status.level[0]
+            previous = self.diagnostics.get(status.name)
+            self.diagnostics[status.name] = (level, status.message)
+            if (previous is None and level != 0) or (previous is not None and previous[0] != level):
+                name = VERDICT_NAMES.get(level, str(level))
+                self.say(f"[diagnostics] {status.name}: {name}: {status.message}")
 
     def command(self, speed: float | None = None) -> None:
         """Publish the carrier speed."""
@@ -230,7 +238,7 @@ def main(argv: list[str] | None = None) -> int:
         + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
     )
     supervisor.start()
-    console = Console(arguments.speed, arguments.namespace)
+    console = Console(arguments.speed, arguments.namespace, supervisor.say)
     executor = rclpy.executors.SingleThreadedExecutor()
     executor.add_node(console.node)
     started = time.monotonic()

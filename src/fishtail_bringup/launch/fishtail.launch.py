@@ -10,23 +10,20 @@ The launch file does not command the motor: publish the carrier speed yourself, 
 `fishtail-run`, which also commands the speed and shows a live console.
 """
 
-import os
-
-from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
-from launch.substitutions import LaunchConfiguration, PythonExpression
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
+from launch_ros.substitutions import FindPackageShare
 
 
 def generate_launch_description():
     """Three nodes in one namespace, geometry from the params file of the chosen mechanism."""
-    config_dir = os.path.join(get_package_share_directory("fishtail_bringup"), "config")
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
     namespace = LaunchConfiguration("namespace")
-    default_params = PythonExpression(
-        ["'", config_dir, "/' + '", mechanism, "' + '.yaml'"]
+    default_params = PathJoinSubstitution(
+        [FindPackageShare("fishtail_bringup"), "config", [mechanism, ".yaml"]]
     )
     return LaunchDescription(
         [

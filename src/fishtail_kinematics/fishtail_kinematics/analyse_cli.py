@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fishtail_kinematics.analysis import AnalysisError, analyse, format_report
+from fishtail_kinematics.cli import OneLineErrorParser
 from fishtail_kinematics.errors import FishtailKinematicsError
 
 PROGRAM = "fishtail-analyse"
@@ -22,7 +23,7 @@ PROGRAM = "fishtail-analyse"
 
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineErrorParser(
         prog=PROGRAM,
         description=__doc__.splitlines()[0],
         epilog="Exit status: 0 done, 1 the recording disagrees with the engine, 2 bad input.",

@@ -57,6 +57,14 @@ class UsageError(Exception):
     """Bad command-line input; reported as one line with exit status 2."""
 
 
+class OneLineErrorParser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (the usage text stays behind --help)."""
+
+    def error(self, message: str):
+        """Print ``prog: error: message`` and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -113,7 +121,7 @@ def _number(text: str) -> float:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests and for the README's usage text)."""
-    geometry = argparse.ArgumentParser(add_help=False)
+    geometry = OneLineErrorParser(add_help=False)
     group = geometry.add_argument_group("geometry (SI units; flags override --config)")
     group.add_argument(
         "--config", type=Path, help="ROS 2 parameter file, e.g. config/oscillatory.yaml"
@@ -127,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
             metavar=spec.unit.upper(),
             help=f"{spec.symbol}: {spec.description} (default {spec.default:.6g})",
         )
-    parser = argparse.ArgumentParser(prog=PROGRAM, description=__doc__.splitlines()[0])
+    parser = OneLineErrorParser(prog=PROGRAM, description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     table = commands.add_parser("table", parents=[geometry], help="one cycle as CSV")
     table.add_argument("--samples", type=_positive_int, default=36, help="angles k*2pi/N (36)")
@@ -229,8 +237,9 @@ def run_plot(arguments: argparse.Namespace, out) -> None:
 def run_design(arguments: argparse.Namespace, out) -> None:
     """Print the design figures of a geometry, one `name: value` a line."""
     geometry = geometry_from_arguments(arguments)
+    summary = design.design_summary(geometry)
     print(f"mechanism: {mechanism_of(geometry)}", file=out)
-    for name, value in design.design_summary(geometry).items():
+    for name, value in summary.items():
         text = f"{value:.9g}" if isinstance(value, float) else str(value)
         print(f"{name}: {text}", file=out)
 

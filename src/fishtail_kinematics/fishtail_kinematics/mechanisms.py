@@ -517,7 +517,7 @@ class UndulatoryTail:
         su, sw, av, vw = self._SU, self._SW, self._AV, self._VW
         su_cos3, su_sin3, sw_cos3, sw_sin3 = su * cos3, su * sin3, sw * cos3, sw * sin3
         vw_sq = vw * vw
-        slope = 0.0
+        slope = residual = 0.0
         for step in range(_MAX_NEWTON_STEPS + 1):
             if step:
                 a -= residual / slope

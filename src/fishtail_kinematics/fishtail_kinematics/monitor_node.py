@@ -24,7 +24,7 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
-from rclpy.qos import qos_profile_sensor_data
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from std_msgs.msg import Float64
 
 from fishtail_kinematics.ros_common import diagnostic_array, float_descriptor, run_node
@@ -101,7 +101,12 @@ class MonitorNode(Node):
         self.last_command_ns: int | None = None
         self.report = SymmetryReport()
 
-        self.report_publisher = self.create_publisher(SymmetryReport, "tail/symmetry", 10)
+        # Transient local: a subscriber that joins late still gets the latest verdict.
+        self.report_publisher = self.create_publisher(
+            SymmetryReport,
+            "tail/symmetry",
+            QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+        )
         self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(TailState, "tail/state", self._on_state, qos_profile_sensor_data)
         self.create_subscription(Float64, "motor/cmd_speed", self._on_command, 10)

@@ -140,7 +140,7 @@ def load_parameter_file(path: str | Path) -> dict[str, object]:
     except UnicodeDecodeError as error:
         raise ParameterError(f"{path} is not UTF-8 text: {error.reason}") from None
     except yaml.YAMLError as error:
-        raise ParameterError(f"{path} is not valid YAML: {error}") from None
+        raise ParameterError(f"{path} is not valid YAML: {' '.join(str(error).split())}") from None
     if not isinstance(document, dict):
         raise ParameterError(f"{path} is not a ROS 2 parameter file (expected a mapping)")
     merged: dict[str, object] = {}

@@ -145,11 +145,12 @@ def test_bad_geometry_is_one_line_and_status_2(capsys, argv, fragment):
         ["frobnicate"],
     ],
 )
-def test_bad_flags_exit_2_without_traceback(capsys, argv):
+def test_bad_flags_exit_2_with_one_line(capsys, argv):
     with pytest.raises(SystemExit) as raised:
         cli.main(argv)
     assert raised.value.code == 2
-    assert "Traceback" not in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "error:" in err, err
 
 
 def test_bad_yaml_file(capsys, tmp_path):

@@ -14,24 +14,16 @@ import fishtail_bringup.console
 RUN_TIMEOUT_S = 60.0
 
 
-def _environment(tmp_path, domain_offset: int) -> dict[str, str]:
-    env = os.environ.copy()
-    env["ROS_DOMAIN_ID"] = str(20 + (os.getpid() + domain_offset) % 60)
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    env["ROS_LOG_DIR"] = str(tmp_path / "ros_log")
-    return env
-
-
 def test_console_doctests():
     result = doctest.testmod(fishtail_bringup.console)
     assert result.attempted > 0 and result.failed == 0
 
 
-def test_bounded_run_shows_beats_and_a_symmetric_verdict(tmp_path):
+def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain):
     # 12 rad/s gives a beat every 0.52 s, so 6 s is several beats even with slow discovery.
     completed = subprocess.run(
         [sys.executable, "-m", "fishtail_bringup.run", "--speed", "12", "--duration", "6"],
-        env=_environment(tmp_path, 0),
+        env=os.environ.copy(),
         capture_output=True,
         text=True,
         timeout=RUN_TIMEOUT_S,
@@ -44,10 +36,10 @@ def test_bounded_run_shows_beats_and_a_symmetric_verdict(tmp_path):
     assert "motor commanded to stop" in output
 
 
-def test_sigint_stops_every_node(tmp_path):
+def test_sigint_stops_every_node(ros_domain):
     process = subprocess.Popen(
         [sys.executable, "-m", "fishtail_bringup.run", "--mechanism", "undulatory"],
-        env=_environment(tmp_path, 1),
+        env=os.environ.copy(),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
