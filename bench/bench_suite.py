@@ -1,8 +1,9 @@
-"""Suite benchmark: driver at 1 kHz -> kinematics -> probe, in one process and in separate ones.
+"""Suite benchmark: driver at 1 kHz -> kinematics -> monitor + probe, in one process and in several.
 
 For each configuration the driver publishes motor/joint_state at 1 kHz (carrier at 4 rad/s), the
-kinematics node turns every sample into tail/state, and a probe subscriber in this process
-measures, over a 10 s window after a 1 s warm-up:
+kinematics node turns every sample into tail/state, the monitor node (subscribed to tail/state
+and motor/cmd_speed) segments it into beats and publishes tail/symmetry and /diagnostics, and a
+probe subscriber in this process measures, over a 10 s window after a 1 s warm-up:
 
 * lost messages: motor/joint_state samples the driver published in the window (the driver's
   publisher is wrapped to record each header stamp, nothing else changes) without a tail/state of
@@ -13,12 +14,18 @@ measures, over a 10 s window after a 1 s warm-up:
 * latency: probe receive time - tail/state header stamp (the driver's publish time): median, p99;
 * CPU: utime + stime deltas from /proc/<pid>/stat over the window, in % of one core.
 
-Configurations: (a) one process, DriverNode and KinematicsNode composed with the probe on one
-rclpy EventsExecutor; (b) driver and kinematics as their own processes (kinematics with
-``python -m``, the driver module's own main() through a few lines that record its stamps), the
-probe here. The one-process CPU figure includes the probe (deserialising 1 kHz of tail/state); a
-further 10 s run of (a) without the probe's subscriptions gives the suite's own CPU. Prints
-figures next to the targets (no asserts) and writes bench/out/bench_suite.json.
+The measurement starts only once the monitor is taking part: in (a) once it has received a
+tail/state, in (b) once its /diagnostics is no longer STALE (it says STALE until tail/state
+arrives). The monitor's beat count over the window and its last verdict are printed as a check
+that it did its work (its own tail/state losses are not counted: the loss figure is the probe's).
+
+Configurations: (a) one process, DriverNode, KinematicsNode and MonitorNode composed with the
+probe on one rclpy EventsExecutor; (b) driver, kinematics and monitor as their own processes
+(kinematics and monitor with ``python -m``, the driver module's own main() through a few lines
+that record its stamps), the probe here; CPU per node process. The one-process CPU figure
+includes the probe (deserialising 1 kHz of tail/state); a further 10 s run of (a) without the
+probe's subscriptions gives the suite's own CPU. Prints figures next to the targets (no asserts)
+and writes bench/out/bench_suite.json.
 Run with `make bench`.
 """
 
@@ -44,7 +51,7 @@ from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64
 
-from fishtail_msgs.msg import TailState
+from fishtail_msgs.msg import SymmetryReport, TailState
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "bench" / "out"
@@ -57,6 +64,9 @@ WINDOW_S = 10.0
 IN_FLIGHT_S = 0.2
 DISCOVERY_TIMEOUT_S = 20.0
 PROBE_QUEUE_DEPTH = 1000
+#: DiagnosticStatus level the monitor reports while no tail/state reaches it.
+LEVEL_STALE = 3
+VERDICT_NAMES = {0: "OK", 1: "WARN", 2: "ERROR"}
 TICKS_PER_S = os.sysconf("SC_CLK_TCK")
 
 TARGETS = {
@@ -138,7 +148,10 @@ def cpu_seconds(pid: int | str = "self") -> float:
 
 
 class Probe:
-    """tail/state subscriber recording (stamp, receive time); commands the motor speed."""
+    """tail/state subscriber recording (stamp, receive time); commands the motor speed.
+
+    Also follows the monitor: its tail/symmetry reports (stamp, verdict) and its /diagnostics.
+    """
 
     def __init__(self, context: Context | None = None, subscribe: bool = True) -> None:
         """Create the node, its subscriptions (unless not ``subscribe``) and the command timer."""
@@ -146,6 +159,9 @@ class Probe:
         self.stamps = array("q")
         self.received = array("q")
         self.kinematics_received: list[tuple[int, int]] = []  # (diagnostics stamp, count)
+        self.beats: list[tuple[int, int]] = []  # (tail/symmetry stamp, verdict)
+        self.monitor_level: int | None = None  # of the monitor's latest /diagnostics
+        self.monitor_message = ""
         self.command = self.node.create_publisher(Float64, "motor/cmd_speed", 10)
         self.node.create_timer(0.2, lambda: self.command.publish(Float64(data=SPEED_RAD_S)))
         if not subscribe:
@@ -158,6 +174,12 @@ class Probe:
         self.node.create_subscription(TailState, "tail/state", self._on_state, qos)
         # The kinematics node's "received" counter, to split losses before and after it.
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        # The monitor's per-beat reports (reliable, like its publisher), to see it at work.
+        self.node.create_subscription(SymmetryReport, "tail/symmetry", self._on_beat, 10)
+
+    def monitor_active(self) -> bool:
+        """True once the monitor's /diagnostics says it is receiving tail/state (not STALE)."""
+        return self.monitor_level is not None and self.monitor_level != LEVEL_STALE
 
     def _on_state(self, message: TailState) -> None:
         now = time.time_ns()
@@ -165,9 +187,17 @@ class Probe:
         self.stamps.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
         self.received.append(now)
 
+    def _on_beat(self, message: SymmetryReport) -> None:
+        stamp = message.header.stamp
+        self.beats.append((stamp.sec * 1_000_000_000 + stamp.nanosec, int(message.verdict)))
+
     def _on_diagnostics(self, message: DiagnosticArray) -> None:
         stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
         for status in message.status:
+            if status.name.startswith("/monitor:"):
+                level = status.level
+                self.monitor_level = level[0] if isinstance(level, bytes) else int(level)
+                self.monitor_message = status.message
             if status.name.startswith("/kinematics:"):
                 values = {pair.key: pair.value for pair in status.values}
                 if "received" in values:
@@ -187,7 +217,9 @@ def spin(executor, seconds: float, until=None) -> bool:
 def measure(executor, ready, pids: dict[str, int | str]) -> dict:
     """Wait for ``ready()``, warm up, spin WINDOW_S; the window's bounds (ns) and CPU % per pid."""
     if not spin(executor, DISCOVERY_TIMEOUT_S, ready):
-        raise SystemExit("bench_suite: no tail/state arrived: the suite did not connect")
+        raise SystemExit(
+            "bench_suite: the suite did not connect (no tail/state at the probe or the monitor)"
+        )
     spin(executor, WARMUP_S)
     cpu_start = {name: cpu_seconds(pid) for name, pid in pids.items()}
     wall_start = time.monotonic()
@@ -220,7 +252,18 @@ def figures(published: np.ndarray, probe: Probe, window: tuple[int, int]) -> dic
         (t0, n0), (t1, n1) = counts[0], counts[-1]
         sent = int(np.count_nonzero((published > t0) & (published <= t1)))
         lost_before_kinematics = {"published": sent, "lost": max(0, sent - (n1 - n0))}
+    # Beats the monitor completed inside the window (a report's stamp is that of the tail/state
+    # sample that closed the beat) and the verdicts it gave them.
+    verdicts = [verdict for stamp, verdict in probe.beats if start <= stamp < end]
+    monitor = {
+        "beats": len(verdicts),
+        "verdicts": {
+            VERDICT_NAMES.get(v, str(v)): verdicts.count(v) for v in sorted(set(verdicts))
+        },
+        "last_diagnostics": probe.monitor_message,
+    }
     return {
+        "monitor": monitor,
         "lost_before_kinematics": lost_before_kinematics,
         "published": int(published.size),
         "publish_rate_hz": published.size / ((end - start) * 1e-9),
@@ -237,17 +280,18 @@ def figures(published: np.ndarray, probe: Probe, window: tuple[int, int]) -> dic
 
 
 def run_one_process(domain: int, driver_params: Path, with_probe: bool = True) -> dict:
-    """DriverNode + KinematicsNode + probe on one EventsExecutor in this process.
+    """DriverNode + KinematicsNode + MonitorNode + probe on one EventsExecutor in this process.
 
     Without the probe's subscriptions, only the CPU figure means something: that of the suite.
     """
     from fishtail_driver.node import DriverNode
+    from fishtail_kinematics.monitor_node import MonitorNode
     from fishtail_kinematics.node import KinematicsNode
 
     args = ["bench", "--ros-args", "--params-file", str(CONFIG)]
     args += ["--params-file", str(driver_params)]
     rclpy.init(args=args, domain_id=domain, signal_handler_options=SignalHandlerOptions.NO)
-    driver = kinematics = probe = executor = None
+    driver = kinematics = monitor = probe = executor = None
     try:
         driver = DriverNode()
         published = array("q")
@@ -260,15 +304,20 @@ def run_one_process(domain: int, driver_params: Path, with_probe: bool = True) -
 
         driver.state_publisher.publish = counting_publish
         kinematics = KinematicsNode()
+        monitor = MonitorNode()
         probe = Probe(subscribe=with_probe)
         executor = EventsExecutor()
-        for node in (driver, kinematics, probe.node):
+        for node in (driver, kinematics, monitor, probe.node):
             executor.add_node(node)
+        # The window starts once tail/state reaches the monitor (and the probe, if subscribed).
+        monitor_fed = lambda: monitor.last_input_ns is not None  # noqa: E731
         if with_probe:
-            run = measure(executor, lambda: len(probe.stamps) > 0, {"process": "self"})
+            ready = lambda: len(probe.stamps) > 0 and monitor_fed()  # noqa: E731
+            run = measure(executor, ready, {"process": "self"})
             result = figures(np.frombuffer(published, dtype=np.int64), probe, run["window"])
         else:
-            run = measure(executor, lambda: kinematics.received > 0, {"process": "self"})
+            ready = lambda: kinematics.received > 0 and monitor_fed()  # noqa: E731
+            run = measure(executor, ready, {"process": "self"})
             result = {}
         result["cpu_pct"] = run["cpu_pct"]
         return result
@@ -277,7 +326,7 @@ def run_one_process(domain: int, driver_params: Path, with_probe: bool = True) -
             executor.shutdown()
         if driver is not None:
             driver.shutdown()
-        for node in (probe.node if probe else None, kinematics, driver):
+        for node in (probe.node if probe else None, monitor, kinematics, driver):
             if node is not None:
                 node.destroy_node()
         rclpy.try_shutdown()
@@ -287,7 +336,7 @@ def run_one_process(domain: int, driver_params: Path, with_probe: bool = True) -
 
 
 def run_separate_processes(domain: int, driver_params: Path, work: Path) -> dict:
-    """Driver and kinematics as processes, the probe in this one."""
+    """Driver, kinematics and monitor as processes, the probe in this one."""
     env = {**os.environ, "ROS_DOMAIN_ID": str(domain), "PYTHONUNBUFFERED": "1"}
     stamps_path = work / "driver_stamps.bin"
     commands = {
@@ -295,6 +344,8 @@ def run_separate_processes(domain: int, driver_params: Path, work: Path) -> dict
                    "--ros-args", "--params-file", str(driver_params)],
         "kinematics": [sys.executable, "-m", "fishtail_kinematics.node",
                        "--ros-args", "--params-file", str(CONFIG)],
+        "monitor": [sys.executable, "-m", "fishtail_kinematics.monitor_node",
+                    "--ros-args", "--params-file", str(CONFIG)],
     }  # fmt: skip
     processes: dict[str, subprocess.Popen] = {}
     context = Context()
@@ -311,7 +362,8 @@ def run_separate_processes(domain: int, driver_params: Path, work: Path) -> dict
         executor = EventsExecutor(context=context)
         executor.add_node(probe.node)
         pids = {name: process.pid for name, process in processes.items()}
-        ready = lambda: len(probe.stamps) > 0  # noqa: E731
+        # tail/state at the probe, and the monitor no longer STALE (it receives tail/state too).
+        ready = lambda: len(probe.stamps) > 0 and probe.monitor_active()  # noqa: E731
         run = measure(executor, ready, {**pids, "probe (this process)": "self"})
     finally:
         for process in processes.values():
@@ -368,6 +420,12 @@ def report(name: str, result: dict) -> None:
         f"      target p99 <= {target['p99_ms']:g} ms: "
         f"{_mark(result['latency_p99_ms'], target['p99_ms'])}"
     )
+    monitor = result["monitor"]
+    verdicts = ", ".join(f"{n} {name}" for name, n in monitor["verdicts"].items()) or "none"
+    print(
+        f"  monitor           {monitor['beats']} beats completed in the window ({verdicts}); "
+        f"last diagnostics: {monitor['last_diagnostics'] or '(none)'}"
+    )
     for process, cpu in result["cpu_pct"].items():
         label = {"process": "whole process", "suite without the probe": "w/o probe (own run)"}.get(
             process, process
@@ -379,7 +437,7 @@ def report(name: str, result: dict) -> None:
         print(line)
     if "cpu_pct" not in target:
         suite = sum(v for k, v in result["cpu_pct"].items() if not k.startswith("probe"))
-        print(f"  CPU driver + kinematics  {suite:5.1f} % of a core (no target)")
+        print(f"  CPU {'the three nodes':<22} {suite:5.1f} % of a core (no target)")
 
 
 def main() -> int:
@@ -389,12 +447,18 @@ def main() -> int:
         work = Path(tmp)
         os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         os.environ["ROS_LOG_DIR"] = str(work / "ros_log")
+        # Only the publish rate is set for the driver, everything else is its default. In
+        # particular not the sim motor's time constant: that parameter, sim_time_constant_s, may
+        # be renamed to sim_time_constant_sec by a parallel change, and a parameter file with the
+        # spelling the driver does not declare would be dropped silently (rclpy ignores overrides
+        # of undeclared parameters). Do not set it here; its default suits the benchmark.
         driver_params = work / "driver.yaml"
         driver_params.write_text(f"driver:\n  ros__parameters:\n    publish_rate_hz: {RATE_HZ!r}\n")
         domains = free_domains(3)
         print(
             f"suite benchmark: driver {RATE_HZ:g} Hz at {SPEED_RAD_S:g} rad/s -> kinematics "
-            f"({CONFIG.name}) -> probe; {WINDOW_S:g} s window after {WARMUP_S:g} s warm-up; "
+            f"({CONFIG.name}) -> monitor + probe; {WINDOW_S:g} s window after {WARMUP_S:g} s "
+            "warm-up; "
             f"{os.cpu_count()} cores; ROS domains {domains}"
         )
         results = {
