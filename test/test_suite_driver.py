@@ -23,7 +23,7 @@ def test_refused_commands_and_watchdog(start_node, ros):
             "publish_rate_hz": 200.0,
             "cmd_timeout_sec": CMD_TIMEOUT_S,
             "diagnostics_period_sec": 0.2,
-            "sim_time_constant_s": TIME_CONSTANT_S,
+            "sim_time_constant_sec": TIME_CONSTANT_S,
             "encoder_counts_per_revolution": COUNTS_PER_REVOLUTION,
         },
     )

@@ -26,6 +26,8 @@ class MotorBackend(Protocol):
     """What the driver node needs of a motor."""
 
     name: str
+    #: What the motor is, for DiagnosticStatus.hardware_id (the port path for serial).
+    hardware_id: str
 
     def start(self) -> None:
         """Connect; raise an exception naming the cause if the motor cannot be reached."""
@@ -50,6 +52,7 @@ class SimBackend:
     """The simulated DC motor, advanced to the wall (monotonic) clock at every read."""
 
     name = "sim"
+    hardware_id = "sim"
 
     def __init__(self, parameters: MotorParameters, clock=time.monotonic) -> None:
         """Create the model; ``clock`` is injectable for tests."""

@@ -153,6 +153,8 @@ class Firmware:
         self._warn = warn
         self.argument_overflows = 0
         self.autostop_at: float | None = None
+        #: When the auto-stop fired (board clock), for tests: it must not while motion is wanted.
+        self.auto_stop_times: list[float] = []
         self.next_pid = now + self.scale.frame_s
         self.power_on(now, counts=config.encoder_offset)
 
@@ -194,6 +196,7 @@ class Firmware:
                 break
             self._move_to(event)
             if is_stop:
+                self.auto_stop_times.append(event)
                 self.autostop_at = None
                 self.moving = False
                 self.targets = [0, 0]

@@ -5,8 +5,14 @@ time constant ``time_constant_s`` and is limited to ``max_speed_rad_s``. Between
 :meth:`SimulatedMotor.advance` the command is constant, so the model integrates exactly (no Euler
 error, whatever the step). The encoder counts ``counts_per_revolution`` per motor-shaft turn, the
 carrier turns once per ``gear_ratio`` motor turns, so the measured carrier angle is quantised to
-2 pi / (counts_per_revolution * gear_ratio). Optional speed noise (a seeded Gaussian load
-disturbance) never drives the one-way motor backwards.
+2 pi / (counts_per_revolution * gear_ratio).
+
+Optional speed noise is a seeded, stationary load disturbance ``d`` added to the lagged speed: an
+Ornstein-Uhlenbeck process with standard deviation ``speed_noise_rad_s`` and the motor's time
+constant as its correlation time, advanced exactly over any step
+(``d <- d e^(-dt/tau) + sigma sqrt(1 - e^(-2 dt/tau)) N(0, 1)``), so its statistics do not depend
+on how often :meth:`SimulatedMotor.advance` is called. The speed is ``max(lagged + d, 0)``: the
+disturbance never drives the one-way motor backwards.
 
 >>> motor = SimulatedMotor(MotorParameters(time_constant_s=0.1, counts_per_revolution=1000))
 >>> motor.command(4.0)
@@ -67,6 +73,8 @@ class SimulatedMotor:
         self.angle_rad = 0.0
         self.speed_rad_s = 0.0
         self.target_rad_s = 0.0
+        self.lagged_speed_rad_s = 0.0  # the first-order response, without the disturbance
+        self.disturbance_rad_s = 0.0
         self._random = random.Random(parameters.seed)
 
     def command(self, speed_rad_s: float) -> None:
@@ -76,17 +84,26 @@ class SimulatedMotor:
         self.target_rad_s = min(max(speed_rad_s, 0.0), self.parameters.max_speed_rad_s)
 
     def advance(self, dt_s: float) -> None:
-        """Move the model on by ``dt_s`` seconds with the current command held constant."""
+        """Move the model on by ``dt_s`` seconds with the current command held constant.
+
+        The lagged speed is integrated exactly; the disturbance (if any) by the trapezoid rule,
+        and the angle never moves backwards.
+        """
         if not dt_s > 0.0:
             return
         p = self.parameters
-        decay = math.exp(-dt_s / p.time_constant_s)
-        offset = self.speed_rad_s - self.target_rad_s
-        self.angle_rad += self.target_rad_s * dt_s + offset * p.time_constant_s * (1.0 - decay)
-        self.speed_rad_s = self.target_rad_s + offset * decay
+        tau = p.time_constant_s
+        decay = math.exp(-dt_s / tau)
+        offset = self.lagged_speed_rad_s - self.target_rad_s
+        step = self.target_rad_s * dt_s + offset * tau * (1.0 - decay)
+        self.lagged_speed_rad_s = self.target_rad_s + offset * decay
         if p.speed_noise_rad_s > 0.0:
-            noisy = self.speed_rad_s + self._random.gauss(0.0, p.speed_noise_rad_s)
-            self.speed_rad_s = min(max(noisy, 0.0), p.max_speed_rad_s)
+            before = self.disturbance_rad_s
+            spread = p.speed_noise_rad_s * math.sqrt(-math.expm1(-2.0 * dt_s / tau))
+            self.disturbance_rad_s = before * decay + spread * self._random.gauss(0.0, 1.0)
+            step = max(step + 0.5 * (before + self.disturbance_rad_s) * dt_s, 0.0)
+        self.angle_rad += step
+        self.speed_rad_s = max(self.lagged_speed_rad_s + self.disturbance_rad_s, 0.0)
 
     def encoder_counts(self) -> int:
         """Encoder count on the motor shaft (floor, as a counter sees it)."""

@@ -3,11 +3,20 @@
 Topics (relative, so a namespace moves the whole suite):
   sub ``motor/cmd_speed``    std_msgs/Float64, carrier speed [rad/s], >= 0 (one-way motor)
   pub ``motor/joint_state``  sensor_msgs/JointState, unwrapped carrier angle [rad] and speed
-                             [rad/s], sensor-data QoS, at ``publish_rate_hz``
+                             [rad/s], sensor-data QoS, at ``publish_rate_hz``, stamped with the
+                             time the encoder was read (not the publish time)
   pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``
 
-A watchdog stops the motor when no command arrives for ``cmd_timeout_sec``; SIGINT and SIGTERM
-stop the motor before the node exits.
+A watchdog, on a timer of its own (at most 50 ms, whatever the publish rate), stops the motor
+when no command arrives for ``cmd_timeout_sec``; SIGINT and SIGTERM stop the motor before the
+node exits. With the serial backend the watchdog cannot be disabled, and the backend stops
+re-sending a non-zero speed once the node has not commanded it for ``cmd_timeout_sec`` plus
+:data:`COMMAND_HOLD_MARGIN_S`, so the board's own 2 s auto-stop stops the motor if this node
+hangs.
+
+All callbacks run on one thread (:func:`spin_until_signal`'s EventsExecutor, and the
+single-threaded executors of the tests and benchmarks), and :meth:`DriverNode.shutdown` runs after
+spinning: the node's state needs no lock (the serial backend locks its own).
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ import math
 import signal
 import sys
 import threading
+import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -25,16 +35,38 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from fishtail_driver.backends import SimBackend
+from fishtail_driver.backends import EncoderSample, SimBackend
 from fishtail_driver.motor_model import MotorParameters
 
 BACKENDS = ("sim", "serial")
+#: The serial backend keeps re-sending a non-zero speed for cmd_timeout_sec plus this [s].
+COMMAND_HOLD_MARGIN_S = 0.25
+#: The watchdog is checked at least this often [s].
+WATCHDOG_PERIOD_MAX_S = 0.05
+
+
+def watchdog_period_s(cmd_timeout_sec: float) -> float:
+    """How often to check the watchdog: a quarter of the timeout, at most 50 ms, at least 5 ms."""
+    if cmd_timeout_sec <= 0.0:
+        return WATCHDOG_PERIOD_MAX_S
+    return min(WATCHDOG_PERIOD_MAX_S, max(cmd_timeout_sec / 4.0, 0.005))
+
+
+def serial_watchdog_error(cmd_timeout_sec: float) -> str | None:
+    """Why ``cmd_timeout_sec`` is not allowed with the serial backend, or None."""
+    if cmd_timeout_sec > 0.0:
+        return None
+    return (
+        "cmd_timeout_sec must be > 0 with backend serial: the watchdog is what stops the real "
+        f"motor when commands stop (got {cmd_timeout_sec:g})"
+    )
 
 
 def _float_descriptor(text: str, low: float, high: float, read_only: bool = False):
@@ -85,7 +117,7 @@ def _declare_serial_parameters(node: Node) -> None:
         "serial: no valid reply for this long: reconnect [s]", 0.1, 60.0, True))  # fmt: skip
 
 
-def _make_serial_backend(node: Node):
+def _make_serial_backend(node: Node, command_hold_s: float):
     """A SerialBackend configured from the node's parameters (ValueError if inconsistent)."""
     from fishtail_driver.serial_backend import SerialBackend, SerialConfig
 
@@ -110,6 +142,7 @@ def _make_serial_backend(node: Node):
             handshake_timeout_s=value("serial_handshake_timeout_sec"),
             stale_timeout_s=max(value("serial_stale_timeout_sec"),
                                 2.0 * value("serial_read_timeout_sec")),
+            command_hold_s=command_hold_s,
         )
     )  # fmt: skip
 
@@ -117,9 +150,12 @@ def _make_serial_backend(node: Node):
 class DriverNode(Node):
     """Thin shell: parameters, command watchdog, publishing and diagnostics around a backend."""
 
-    def __init__(self) -> None:
-        """Declare parameters, start the backend and the timers."""
-        super().__init__("driver")
+    def __init__(self, **node_options) -> None:
+        """Declare parameters, start the backend and the timers.
+
+        ``node_options`` go to :class:`rclpy.node.Node` (``context``, ``parameter_overrides`` ...).
+        """
+        super().__init__("driver", **node_options)
         self.declare_parameter(
             "backend", "sim",
             ParameterDescriptor(description="motor backend: sim or serial", read_only=True),
@@ -131,11 +167,12 @@ class DriverNode(Node):
         self.declare_parameter(
             "cmd_timeout_sec", 0.5,
             _float_descriptor("stop the motor when no command arrives for this long [s]; "
-                              "0 disables the watchdog", 0.0, 60.0),
+                              "0 disables the watchdog (sim backend only)", 0.0, 60.0),
         )  # fmt: skip
         self.declare_parameter(
             "max_speed_rad_s", 20.0,
-            _float_descriptor("commands above this carrier speed are clamped [rad/s]", 0.1, 1000.0),
+            _float_descriptor("commands above this carrier speed are clamped [rad/s]", 0.1, 1000.0,
+                              read_only=True),
         )  # fmt: skip
         self.declare_parameter(
             "joint_name", "carrier_joint",
@@ -159,12 +196,13 @@ class DriverNode(Node):
             _float_descriptor("motor-shaft turns per carrier turn", 0.001, 10000.0, read_only=True),
         )  # fmt: skip
         self.declare_parameter(
-            "sim_time_constant_s", 0.15,
+            "sim_time_constant_sec", 0.15,
             _float_descriptor("sim: first-order speed time constant [s]", 0.001, 100.0, True),
         )  # fmt: skip
         self.declare_parameter(
             "sim_speed_noise_rad_s", 0.0,
-            _float_descriptor("sim: std of a Gaussian speed disturbance [rad/s]", 0.0, 100.0, True),
+            _float_descriptor("sim: std of a stationary speed disturbance (correlation time: the "
+                              "time constant) [rad/s]", 0.0, 100.0, True),
         )  # fmt: skip
         self.declare_parameter(
             "sim_seed", 0,
@@ -176,12 +214,16 @@ class DriverNode(Node):
         backend_name = self.get_parameter("backend").value
         if backend_name not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend_name!r}")
+        self.cmd_timeout_sec = self.get_parameter("cmd_timeout_sec").value
         if backend_name == "serial":
-            self.backend = _make_serial_backend(self)
+            reason = serial_watchdog_error(self.cmd_timeout_sec)
+            if reason is not None:
+                raise ValueError(reason)
+            self.backend = _make_serial_backend(self, self.cmd_timeout_sec + COMMAND_HOLD_MARGIN_S)
         else:
             self.backend = SimBackend(
                 MotorParameters(
-                    time_constant_s=self.get_parameter("sim_time_constant_s").value,
+                    time_constant_s=self.get_parameter("sim_time_constant_sec").value,
                     max_speed_rad_s=self.get_parameter("max_speed_rad_s").value,
                     counts_per_revolution=self.get_parameter("encoder_counts_per_revolution").value,
                     gear_ratio=self.get_parameter("gear_ratio").value,
@@ -191,14 +233,13 @@ class DriverNode(Node):
             )
         self.backend.start()
 
-        self._lock = threading.Lock()
         self.commanded_speed = 0.0
         self.last_command_ns: int | None = None
         self.watchdog_stops = 0
         self.rejected_commands = 0
         self.clamped_commands = 0
         self.watchdog_tripped = False
-        self.cmd_timeout_sec = self.get_parameter("cmd_timeout_sec").value
+        self.phase_rebases_seen = 0
         self.max_speed = self.get_parameter("max_speed_rad_s").value
 
         self.state_message = JointState()
@@ -211,6 +252,9 @@ class DriverNode(Node):
         self.publish_timer = self.create_timer(
             1.0 / self.get_parameter("publish_rate_hz").value, self._on_publish_tick
         )
+        self.watchdog_timer = self.create_timer(
+            watchdog_period_s(self.cmd_timeout_sec), self._check_watchdog
+        )
         self.create_timer(self.get_parameter("diagnostics_period_sec").value, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info(
@@ -222,14 +266,24 @@ class DriverNode(Node):
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         # Ranges and read-only are enforced by the descriptors before this runs.
         for parameter in parameters:
+            if parameter.name == "cmd_timeout_sec" and self.backend.name == "serial":
+                reason = serial_watchdog_error(parameter.value)
+                if reason is not None:
+                    return SetParametersResult(successful=False, reason=reason)
+        for parameter in parameters:
             if parameter.name == "publish_rate_hz":
                 self.publish_timer.cancel()
                 self.destroy_timer(self.publish_timer)
                 self.publish_timer = self.create_timer(1.0 / parameter.value, self._on_publish_tick)
             elif parameter.name == "cmd_timeout_sec":
                 self.cmd_timeout_sec = parameter.value
-            elif parameter.name == "max_speed_rad_s":
-                self.max_speed = parameter.value
+                self.watchdog_timer.cancel()
+                self.destroy_timer(self.watchdog_timer)
+                self.watchdog_timer = self.create_timer(
+                    watchdog_period_s(parameter.value), self._check_watchdog
+                )
+                if self.backend.name == "serial":
+                    self.backend.set_command_hold(parameter.value + COMMAND_HOLD_MARGIN_S)
         return SetParametersResult(successful=True)
 
     def _on_command(self, message: Float64) -> None:
@@ -249,42 +303,54 @@ class DriverNode(Node):
                 throttle_duration_sec=1.0,
             )
             speed = self.max_speed
-        with self._lock:
-            self.commanded_speed = speed
-            self.last_command_ns = self.get_clock().now().nanoseconds
-            if self.watchdog_tripped:
-                self.get_logger().info("commands resumed")
-            self.watchdog_tripped = False
-            self.backend.set_speed(speed)
+        self.commanded_speed = speed
+        self.last_command_ns = self.get_clock().now().nanoseconds
+        if self.watchdog_tripped:
+            self.get_logger().info("commands resumed")
+        self.watchdog_tripped = False
+        self.backend.set_speed(speed)
 
     def _check_watchdog(self) -> None:
         if self.cmd_timeout_sec <= 0.0 or self.last_command_ns is None or self.watchdog_tripped:
             return
         age_s = (self.get_clock().now().nanoseconds - self.last_command_ns) * 1e-9
         if age_s > self.cmd_timeout_sec and self.commanded_speed > 0.0:
-            with self._lock:
-                self.watchdog_tripped = True
-                self.watchdog_stops += 1
-                self.commanded_speed = 0.0
-                self.backend.stop()
+            self.watchdog_tripped = True
+            self.watchdog_stops += 1
+            self.commanded_speed = 0.0
+            self.backend.stop()
             self.get_logger().warning(
                 f"no speed command for {age_s:.2f} s (cmd_timeout_sec = {self.cmd_timeout_sec:g}):"
                 " motor stopped"
             )
 
+    def _sample_stamp(self, sample: EncoderSample):
+        """The ROS time at which ``sample`` was read: now minus its age on the monotonic clock."""
+        now = self.get_clock().now()
+        age_ns = max(0, round((time.monotonic() - sample.monotonic_s) * 1e9))
+        return (now - Duration(nanoseconds=age_ns)).to_msg()
+
     def _on_publish_tick(self) -> None:
-        self._check_watchdog()
         sample = self.backend.read()
         if sample is None:
             return
         message = self.state_message
-        message.header.stamp = self.get_clock().now().to_msg()
+        message.header.stamp = self._sample_stamp(sample)
         message.position = [sample.angle_rad]
         message.velocity = [sample.velocity_rad_s]
         self.state_publisher.publish(message)
 
     def _on_diagnostics(self) -> None:
         level, text, values = self.backend.status()
+        rebases = int(values.get("phase_rebases", "0") or 0)
+        if rebases > self.phase_rebases_seen:
+            self.phase_rebases_seen = rebases
+            self.get_logger().warning(
+                f"encoder angle re-based ({values.get('last_phase_rebase', '')}; {rebases} since "
+                "start): the motion during the board's reset or outage is unknown, so the carrier "
+                "phase reference may have shifted; if the tail pose is off, re-calibrate the "
+                "kinematics node's phase_rad (docs/serial.md)"
+            )
         if self.watchdog_tripped and level == 0:
             level, text = 1, f"no speed command for over {self.cmd_timeout_sec:g} s: motor stopped"
         values = {
@@ -303,7 +369,7 @@ class DriverNode(Node):
             level=bytes([level]),
             name=f"{self.get_fully_qualified_name()}: motor",
             message=text,
-            hardware_id=self.backend.name,
+            hardware_id=self.backend.hardware_id,
             values=[KeyValue(key=key, value=value) for key, value in values.items()],
         )
         array = DiagnosticArray(status=[status])
@@ -312,10 +378,9 @@ class DriverNode(Node):
 
     def shutdown(self) -> None:
         """Stop the motor and release the backend; safe to call twice."""
-        with self._lock:
-            self.commanded_speed = 0.0
-            self.backend.stop()
-            self.backend.close()
+        self.commanded_speed = 0.0
+        self.backend.stop()
+        self.backend.close()
         self.get_logger().info("motor commanded to stop; driver exiting")
 
 

@@ -15,7 +15,11 @@ The thread:
   sliding window of ``velocity_window_s``;
 - sends ``m`` when the commanded speed changes and re-sends it every ``resend_period_s`` while it
   is not zero, so the board's 2 s auto-stop never fires while motion is commanded (and fires
-  within 2 s if this process dies);
+  within 2 s if this process dies). With ``command_hold_s`` (the driver node sets it to its
+  watchdog timeout plus a margin), a non-zero speed is re-sent only while the last
+  :meth:`SerialBackend.set_speed` call is at most that old: if the node stops calling (its
+  executor hangs, its watchdog with it), the re-sends stop and the board's own auto-stop stops
+  the motor within 2 s of the last ``m``;
 - detects, counts and reports every fault: the port missing or failing to open, the path
   vanishing or pointing to another device (unplug/replug), read/write errors, a read timeout, a
   partial, garbled, binary or oversized reply, ``Invalid Command``, replies out of step, and board
@@ -23,13 +27,17 @@ The thread:
   poll and a resynchronisation (input drained until the line is quiet); the link is declared lost
   (ERROR, port closed, reconnect with backoff) on an I/O error, a vanished path, or when no valid
   reply arrived for ``stale_timeout_s``;
-- keeps the published angle continuous: after a reconnect or a reset the count is re-based (the
-  angle holds its last value and moves on from there); a reply of ``0 0`` right after a reconnect
-  is a board reset, not motion, and so is a step larger than the motor can make or against its
-  direction. A reading that disagrees with the speed estimate is held back for one poll: if the
-  next reading continues from it, the step was real (motion or reset); if the next one continues
-  from the previous reading, the held one was a corrupt value that happened to parse (a flipped
-  digit) and is dropped as an outlier.
+- keeps the published angle continuous: after a board reset (seen mid-run or right after a
+  reconnect) the count is re-based (the angle holds its last value and moves on from there); a
+  reply of ``0 0`` right after a reconnect is a board reset, not motion, and so is a step larger
+  than the motor can make or against its direction. Motion the board did not count (while it
+  was resetting or off) is unknown, so a re-base may shift the carrier phase by a constant: it is
+  counted (``phase_rebases``) and status() is WARN for ``phase_warn_s`` afterwards, saying so. A
+  reconnect to a board that kept counting continues from its count and keeps the phase. A
+  reading that disagrees with the speed estimate is held back for one poll: if the next reading
+  continues from it, the step was real (motion or reset); if the next one continues from the
+  previous reading, the held one was a corrupt value that happened to parse (a flipped digit)
+  and is dropped as an outlier.
 
 :meth:`SerialBackend.read` returns each new encoder sample once and None when no new sample
 arrived since the previous call (and while disconnected): the driver then skips that publish
@@ -108,6 +116,10 @@ class SerialConfig:
         velocity_window_s: time span of the velocity estimate.
         fault_hold_s: status() is WARN for this long after a transient fault.
         pid_gains: optional (kp, kd, ki, ko) sent with ``u`` after every connect.
+        command_hold_s: re-send a non-zero speed only while the last set_speed() call is at most
+            this old (None: keep re-sending it until it changes); see
+            :meth:`SerialBackend.set_command_hold`.
+        phase_warn_s: status() is WARN for this long after the angle was re-based.
     """
 
     port: str
@@ -128,6 +140,8 @@ class SerialConfig:
     velocity_window_s: float = 0.1
     fault_hold_s: float = 2.0
     pid_gains: tuple[int, int, int, int] | None = None
+    command_hold_s: float | None = None
+    phase_warn_s: float = 10.0
 
     def __post_init__(self) -> None:
         """Reject settings that cannot work, with the reason."""
@@ -153,6 +167,9 @@ class SerialConfig:
              "need 0 < reconnect_min_s <= reconnect_max_s"),
             (self.max_line_bytes >= 32, f"max_line_bytes must be >= 32, got {self.max_line_bytes}"),
             (self.velocity_window_s > 0.0, "velocity_window_s must be > 0"),
+            (self.command_hold_s is None or self.command_hold_s > 0.0,
+             f"command_hold_s must be > 0 or None, got {self.command_hold_s}"),
+            (self.phase_warn_s >= 0.0, f"phase_warn_s must be >= 0, got {self.phase_warn_s}"),
         )  # fmt: skip
         for ok, reason in checks:
             if not ok:
@@ -194,6 +211,7 @@ class SerialBackend:
     ) -> None:
         """Prepare (nothing is opened until :meth:`start`); ``opener`` is injectable for tests."""
         self.config = config
+        self.hardware_id = config.port
         self.scale = Scale(config.counts_per_revolution, config.gear_ratio, config.pid_rate_hz)
         self._clock = clock
         self._opener = opener or serial.serial_for_url
@@ -213,6 +231,9 @@ class SerialBackend:
         self._acked_ticks: int | None = None
         self._acked_at = -math.inf
         self._motor_retry_at = -math.inf  # after a failed m, not before this
+        self._set_at = -math.inf  # time of the last set_speed() call
+        self._command_hold_s = config.command_hold_s
+        self._resends_paused = False
         # Sample state (shared).
         self._latest: EncoderSample | None = None
         self._latest_seq = 0
@@ -230,7 +251,9 @@ class SerialBackend:
         self._board_baud: int | None = None
         self._last_fault: tuple[str, str, float] | None = None
         self._final_stop = "not sent"
+        self._last_rebase: tuple[str, float] | None = None  # (why, when)
         self.counters: collections.Counter[str] = collections.Counter()
+        self.counters["phase_rebases"] = 0
 
     # ------------------------------------------------------------------------------------------
     # MotorBackend interface (called from the node's threads; never blocks on I/O)
@@ -246,11 +269,31 @@ class SerialBackend:
     def set_speed(self, speed_rad_s: float) -> None:
         """Command a carrier speed; the I/O thread sends it at once and keeps it alive."""
         ticks, clamped = self.scale.ticks_per_frame(speed_rad_s)
+        now = self._clock()
         with self._lock:
             if clamped:
                 self.counters["clamped_commands"] += 1
             self._target_speed = speed_rad_s
             self._target_ticks = ticks
+            self._set_at = now
+        self._wake.set()
+
+    @property
+    def command_hold_s(self) -> float | None:
+        """The current hold time of a non-zero speed (see :meth:`set_command_hold`)."""
+        with self._lock:
+            return self._command_hold_s
+
+    def set_command_hold(self, hold_s: float | None) -> None:
+        """Re-send a non-zero speed only while the last set_speed() is at most ``hold_s`` old.
+
+        None: re-send it for as long as it is commanded. The driver node sets its watchdog
+        timeout plus a margin, so that the board's auto-stop takes over if the node hangs.
+        """
+        if hold_s is not None and not hold_s > 0.0:
+            raise ValueError(f"hold_s must be > 0 or None, got {hold_s!r}")
+        with self._lock:
+            self._command_hold_s = hold_s
         self._wake.set()
 
     def stop(self) -> None:
@@ -298,6 +341,7 @@ class SerialBackend:
             state = self._state
             fault = self._last_fault
             acked = "" if self._acked_ticks is None else str(self._acked_ticks)
+            rebase = self._last_rebase
             pair = "" if self._last_pair is None else " ".join(map(str, self._last_pair))
             values = {
                 "port": config.port,
@@ -315,13 +359,23 @@ class SerialBackend:
                 "continuous_counts": str(self._unwrapper.total),
                 "last_fault": "" if fault is None else f"{fault[0]}: {fault[1]}",
                 "final_stop": self._final_stop,
+                "resends_paused": str(self._resends_paused).lower(),
+                "last_phase_rebase": "" if rebase is None else rebase[0],
             }
             for key in sorted(self.counters):
                 values[key] = str(self.counters[key])
         if not connected:
             return 2, f"serial: {state}", values
+        notes = []
         if fault is not None and now - fault[2] < config.fault_hold_s:
-            return 1, f"serial: connected to {config.port}; recent fault: {fault[0]}", values
+            notes.append(f"recent fault: {fault[0]}")
+        if rebase is not None and now - rebase[1] < config.phase_warn_s:
+            notes.append(
+                "encoder angle re-based after a board reset or power cycle: the carrier phase "
+                "reference may have shifted, phase_rad may need re-calibration"
+            )
+        if notes:
+            return 1, f"serial: connected to {config.port}; {'; '.join(notes)}", values
         return 0, f"serial: connected to {config.port} at {config.baud} baud", values
 
     # ------------------------------------------------------------------------------------------
@@ -546,8 +600,9 @@ class SerialBackend:
                 next_path_check = now + 0.25
             with self._lock:
                 ticks, acked, acked_at = self._target_ticks, self._acked_ticks, self._acked_at
+                sendable = self._sendable_locked(ticks, now)
             resend_due = acked_at + config.resend_period_s
-            due = ticks != acked or (ticks != 0 and now >= resend_due)
+            due = sendable and (ticks != acked or (ticks != 0 and now >= resend_due))
             if due and now >= self._motor_retry_at:
                 self._send_motor(ticks, resend=ticks == acked)
             now = self._clock()
@@ -560,12 +615,15 @@ class SerialBackend:
             with self._lock:
                 silent_s = now - self._last_good_s
                 ticks, acked, acked_at = self._target_ticks, self._acked_ticks, self._acked_at
+                sendable = self._sendable_locked(ticks, now)
             if silent_s > config.stale_timeout_s:
                 fault = self._last_fault
                 detail = f" (last fault: {fault[0]}: {fault[1]})" if fault else ""
                 raise _LinkLostError(f"no valid reply for {silent_s:.1f} s{detail}")
             deadline = min(next_poll, next_path_check)
-            if ticks != acked:
+            if not sendable:
+                pass  # a stale non-zero speed: nothing to send until set_speed() is called
+            elif ticks != acked:
                 deadline = min(deadline, max(now, self._motor_retry_at))
             elif ticks != 0:
                 deadline = min(deadline, max(acked_at + config.resend_period_s,
@@ -573,6 +631,20 @@ class SerialBackend:
             timeout = deadline - self._clock()
             if timeout > 0:
                 self._wake.wait(timeout)
+
+    def _sendable_locked(self, ticks: int, now: float) -> bool:
+        """Whether ``ticks`` may be sent now: zero always, non-zero while set_speed() is fresh.
+
+        Call with the lock held; notes (and counts once) when re-sending pauses.
+        """
+        hold = self._command_hold_s
+        if ticks == 0 or hold is None or now - self._set_at <= hold:
+            self._resends_paused = False
+            return True
+        if not self._resends_paused:
+            self._resends_paused = True
+            self.counters["resend_pauses"] += 1
+        return False
 
     def _check_path(self) -> None:
         port = self.config.port
@@ -712,6 +784,8 @@ class SerialBackend:
                 self._last_fault = ("outliers", outlier, self._clock())
             if reset is not None:
                 self.counters["board_resets"] += 1
+                self.counters["phase_rebases"] += 1
+                self._last_rebase = (reset, self._clock())
                 if not after_connect:
                     # Unexpected: the board lost its target too, so re-send it now.
                     self._last_fault = ("board_reset", reset, self._clock())

@@ -6,7 +6,8 @@
   a real pty, served by a thread of this process, with a symlink in tmp_path; stopped at teardown.
 * ``board_process(link, *args)``: ``python -m fishtail_driver.fake_board`` as a process (what
   ``fishtail-fake-board`` runs), its pty path read from its stdout; killed at teardown.
-* ``serial_backend(port, **config)``: a started :class:`SerialBackend`; closed at teardown.
+* ``serial_backend(port, opener=None, **config)``: a started :class:`SerialBackend`; closed at
+  teardown.
 * ``ros_domain`` / ``ros_probe``: a ROS domain of our own (the same lock directory as the
   workspace's integration tests, so parallel runs never share a domain), localhost discovery,
   ROS_LOG_DIR in tmp_path, and a probe node with recording subscriptions.
@@ -166,11 +167,11 @@ def board_process(tmp_path) -> Callable[..., BoardProcess]:
 
 @pytest.fixture
 def serial_backend() -> Callable[..., SerialBackend]:
-    """Start backends: ``serial_backend(port, **SerialConfig fields)``; closed at teardown."""
+    """Start backends: ``serial_backend(port, opener=None, **SerialConfig)``; closed at teardown."""
     backends: list[SerialBackend] = []
 
-    def make(port: Path | str, **config) -> SerialBackend:
-        backend = SerialBackend(SerialConfig(port=str(port), **config))
+    def make(port: Path | str, opener=None, **config) -> SerialBackend:
+        backend = SerialBackend(SerialConfig(port=str(port), **config), opener=opener)
         backends.append(backend)
         backend.start()
         return backend

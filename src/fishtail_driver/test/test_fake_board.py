@@ -89,8 +89,10 @@ def test_stop_is_immediate_and_auto_stop_strictly_after_2000_ms():
     send(board, b"e\r", now=1.9)  # e does not refresh the auto-stop timer
     board.advance(2.0)
     assert board.moving and board.motors[0].target_rad_s > 0.0
+    assert board.auto_stop_times == []
     board.advance(2.0015)
     assert not board.moving and board.motors[0].target_rad_s == 0.0
+    assert board.auto_stop_times == [pytest.approx(2.001)]  # reported, for the backend's tests
     send(board, b"m 40 0\r", now=3.0)
     board.advance(3.05)
     assert board.motors[0].target_rad_s > 0.0

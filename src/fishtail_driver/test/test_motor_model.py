@@ -71,6 +71,56 @@ def test_noise_is_seeded_and_never_reverses_the_motor():
     assert min(run(3)) >= 0.0
 
 
+def steady_speed_statistics(dt_s: float, duration_s: float) -> tuple[float, float]:
+    """Mean and standard deviation of the speed at a constant command, after the transient."""
+    tau, sigma, target = 0.01, 0.5, 10.0
+    motor = SimulatedMotor(
+        MotorParameters(time_constant_s=tau, speed_noise_rad_s=sigma, max_speed_rad_s=50.0, seed=7)
+    )
+    motor.command(target)
+    for _ in range(round(10 * tau / dt_s) + 1):  # settle: the lag and the disturbance
+        motor.advance(dt_s)
+    speeds = []
+    for _ in range(round(duration_s / dt_s)):
+        motor.advance(dt_s)
+        speeds.append(motor.speed_rad_s)
+    mean = math.fsum(speeds) / len(speeds)
+    std = math.sqrt(math.fsum((v - mean) ** 2 for v in speeds) / (len(speeds) - 1))
+    return mean, std
+
+
+def test_noise_std_is_the_parameter_whatever_the_step():
+    """The disturbance is stationary: std = speed_noise_rad_s at 0.05 tau and at 5 tau steps.
+
+    Statistical, not timed (a fixed seed makes it deterministic). About 1000 correlation times
+    per run give the sample std a relative standard error near 2-3 %; a full-size kick at every
+    step (the old model) gave 3.2 sigma at the fine step and 1.0 sigma at the coarse one.
+    """
+    fine_mean, fine_std = steady_speed_statistics(dt_s=0.0005, duration_s=20.0)
+    coarse_mean, coarse_std = steady_speed_statistics(dt_s=0.05, duration_s=100.0)
+    assert fine_std == pytest.approx(0.5, rel=0.12)
+    assert coarse_std == pytest.approx(0.5, rel=0.12)
+    assert fine_std == pytest.approx(coarse_std, rel=0.15)
+    assert fine_mean == pytest.approx(10.0, abs=0.1)
+    assert coarse_mean == pytest.approx(10.0, abs=0.1)
+
+
+def test_noise_is_correlated_over_the_time_constant():
+    """Consecutive speeds a small fraction of tau apart are nearly equal (no white kicks)."""
+    motor = SimulatedMotor(MotorParameters(time_constant_s=0.1, speed_noise_rad_s=1.0, seed=2))
+    motor.command(10.0)
+    for _ in range(2000):
+        motor.advance(0.001)
+    steps = []
+    for _ in range(2000):
+        before = motor.speed_rad_s
+        motor.advance(0.001)
+        steps.append(motor.speed_rad_s - before)
+    # OU increments over dt have std sigma * sqrt(2 dt / tau) = 0.14 sigma for dt = tau / 100.
+    rms = math.sqrt(math.fsum(step * step for step in steps) / len(steps))
+    assert rms == pytest.approx(math.sqrt(2 * 0.001 / 0.1), rel=0.15)
+
+
 @pytest.mark.parametrize(
     ("field", "value"),
     [("time_constant_s", 0.0), ("max_speed_rad_s", -1.0), ("counts_per_revolution", 0),
