@@ -447,11 +447,7 @@ def main() -> int:
         work = Path(tmp)
         os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         os.environ["ROS_LOG_DIR"] = str(work / "ros_log")
-        # Only the publish rate is set for the driver, everything else is its default. In
-        # particular not the sim motor's time constant: that parameter, sim_time_constant_s, may
-        # be renamed to sim_time_constant_sec by a parallel change, and a parameter file with the
-        # spelling the driver does not declare would be dropped silently (rclpy ignores overrides
-        # of undeclared parameters). Do not set it here; its default suits the benchmark.
+        # Only the publish rate is set for the driver; everything else is its default.
         driver_params = work / "driver.yaml"
         driver_params.write_text(f"driver:\n  ros__parameters:\n    publish_rate_hz: {RATE_HZ!r}\n")
         domains = free_domains(3)
