@@ -24,7 +24,8 @@ and ``diff_controller.h``; ``o`` and the ``b`` reply without a leading space wit
 Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply, ``--drop-rate`` loses
 a command or its reply, ``--garble-rate`` corrupts a reply (a flipped byte, a truncated line, a
 binary line, an oversized line) or the command letter (the board answers ``Invalid Command``),
-``--reset-after-s`` resets the board once (counts back to 0, silent for ``--boot-ms``),
+``--reset-after-s`` resets the board once (counts back to 0, silent for ``--boot-ms``), and so
+does every SIGUSR1 (a reset when the caller chooses, e.g. once the motor turns),
 ``--disconnect-after-s`` unplugs the pty once for ``--disconnect-for-s`` and then plugs in a new
 one (a replug power-cycles the board). ``--pace-baud`` delays every byte by its line time at
 ``--baud`` (10 bits per byte) in both directions, because a pty otherwise transfers at memory speed
@@ -332,6 +333,7 @@ class FakeBoard:
             else self.start_time + config.disconnect_after_s
         )  # fmt: skip
         self._replug_at: float | None = None
+        self._reset_requested = threading.Event()
         self.commands: list[tuple[float, str]] = []
         self.counts = collections.Counter()
 
@@ -440,6 +442,15 @@ class FakeBoard:
 
         self._call(action)
 
+    def request_reset(self) -> None:
+        """Reset the board at the loop's next turn (safe from signal handlers and other threads).
+
+        Same effect as :meth:`reset`, without waiting for the loop; logged as ``# reset
+        (requested)``.
+        """
+        self._reset_requested.set()
+        self._wake()
+
     def stop(self) -> None:
         """Ask :meth:`run` to return (safe from signal handlers and other threads)."""
         self._stop.set()
@@ -507,6 +518,12 @@ class FakeBoard:
                     raise
 
     def _scheduled(self, now: float) -> None:
+        if self._reset_requested.is_set():
+            self._reset_requested.clear()
+            self.counts["resets"] += 1
+            self._record(now, "# reset (requested)")
+            self._warn("board reset (requested)")
+            self._power_on(now)
         if self._reset_at is not None and now >= self._reset_at:
             self._reset_at = None
             self.counts["resets"] += 1
@@ -600,6 +617,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="fishtail-fake-board",
         description="Emulated ROSArduinoBridge motor board on a pty (prints the device path).",
+        epilog="Signals: SIGUSR1 resets the board (counts back to 0, deaf for --boot-ms); "
+        "SIGINT, SIGTERM and SIGHUP end it.",
     )
     add = parser.add_argument
     add("--link", help="keep a symlink to the current pty at this path (removed on exit)")
@@ -662,6 +681,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, lambda *_: board.stop())
+    signal.signal(signal.SIGUSR1, lambda *_: board.request_reset())
     try:
         board.run()
     except BrokenPipeError:

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import signal
+
 import pytest
+import serial
 
 from fishtail_driver.fake_board import BoardConfig, Firmware, main
 from fishtail_driver.protocol import INT32_MAX, INT32_MIN
@@ -115,3 +119,28 @@ def test_cli_rejects_bad_options(capsys):
     """Bad settings exit with status 2 and the reason, without a traceback."""
     assert main(["--drop-rate", "2"]) == 2
     assert "drop_rate" in capsys.readouterr().err
+
+
+def test_sigusr1_resets_the_board(board_process, tmp_path, wait_until):
+    """``kill -USR1`` resets the running board: counts back near 0, logged, the process goes on."""
+    link, log = tmp_path / "tty", tmp_path / "board.log"
+    process = board_process(link, log=log)
+    process.next_path()
+    with serial.Serial(str(link), 57600, timeout=1.0) as port:
+
+        def ask(command: bytes) -> bytes:
+            port.write(command + b"\r")
+            return port.read_until(b"\r\n")
+
+        def left_count() -> int:
+            return int(ask(b"e").split()[0])
+
+        assert ask(b"m 40 0") == b"OK\r\n"
+        wait_until(lambda: left_count() > 2000, 5.0, "the encoder to count")
+        before = left_count()
+        os.kill(process.popen.pid, signal.SIGUSR1)
+        wait_until(lambda: "# reset (requested)" in log.read_text(), 5.0, "the reset logged")
+        after = left_count()  # the shaft coasts a little after the reset, from 0
+        assert 0 <= after < before // 2, (before, after)
+        assert ask(b"m 40 0") == b"OK\r\n"  # the board still answers
+    assert process.popen.poll() is None
