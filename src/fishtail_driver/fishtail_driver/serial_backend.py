@@ -764,6 +764,16 @@ class SerialBackend:
             self._pending = None
             held_delta = unwrapper.delta_to(held_raw)
             reset = self._discontinuity(pair, held_delta, max(held_s - last_s, 0.0))
+            if reset is not None and abs(held_raw) > self._max_step(max(held_s - last_s, 0.0)):
+                # Confirmed, but too far from 0 for a board that restarted since the last
+                # reading: the reading accepted before was a corrupt value that happened to look
+                # plausible. Follow the board (a one-off correction) rather than re-basing, which
+                # would keep that error in the angle for good.
+                outlier = (
+                    f"reading before {held_raw} was corrupt: angle corrected by "
+                    f"{held_delta} counts"
+                )
+                reset = None
             if reset is not None:
                 unwrapper.rebase()
             self._step(unwrapper.update(held_raw))
