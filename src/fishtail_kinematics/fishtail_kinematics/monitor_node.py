@@ -27,7 +27,12 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from std_msgs.msg import Float64
 
-from fishtail_kinematics.ros_common import diagnostic_array, float_descriptor, run_node
+from fishtail_kinematics.ros_common import (
+    LEVEL_STALE,
+    diagnostic_array,
+    float_descriptor,
+    run_node,
+)
 from fishtail_kinematics.swimming import (
     SWIMMING_PARAMETERS,
     SwimmingParameters,
@@ -44,7 +49,6 @@ from fishtail_kinematics.symmetry import (
 )
 from fishtail_msgs.msg import SymmetryReport, TailState
 
-_LEVEL_STALE = 3
 _TOLERANCE_NAMES = tuple(f.name for f in SymmetryTolerances.__dataclass_fields__.values())
 # Speeds below this are "not commanded" (a beat would take longer than ~2 minutes).
 _MIN_COMMANDED_SPEED_RAD_S = 0.05
@@ -92,6 +96,8 @@ class MonitorNode(Node):
         self.tip_samples = TipSampleBuffer()
         self.last_tip_kinematics: TipKinematics | None = None
         self.tracker = BeatTracker(self.get_parameter("hysteresis_rad").value)
+        # Read on every tail/state message (1 kHz), so kept here rather than looked up each time.
+        self.gap_reset_sec = self.get_parameter("gap_reset_sec").value
         self.last_beat: BeatStatistics | None = None
         self.last_verdict: tuple[Verdict, str] | None = None
         self.last_sample_time_s: float | None = None
@@ -138,6 +144,7 @@ class MonitorNode(Node):
         if "hysteresis_rad" in changed:
             # Takes effect at the next arming; the beat count and the beat in progress stay.
             self.tracker.hysteresis_rad = changed["hysteresis_rad"]
+        self.gap_reset_sec = changed.get("gap_reset_sec", self.gap_reset_sec)
         return SetParametersResult(successful=True)
 
     def _on_command(self, message: Float64) -> None:
@@ -164,7 +171,7 @@ class MonitorNode(Node):
         time_s = stamp.sec + stamp.nanosec * 1e-9
         if (
             self.last_sample_time_s is not None
-            and time_s - self.last_sample_time_s > self.get_parameter("gap_reset_sec").value
+            and time_s - self.last_sample_time_s > self.gap_reset_sec
         ):
             self.tracker.reset()
             self.tip_samples.reset()
@@ -208,7 +215,7 @@ class MonitorNode(Node):
         stale_after = self.get_parameter("stale_timeout_sec").value
         commanded = self._commanded(now_ns)
         if self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after:
-            level, text = _LEVEL_STALE, "no tail/state received recently"
+            level, text = LEVEL_STALE, "no tail/state received recently"
         elif commanded and self._beat_overdue(now_ns):
             waited = (now_ns - self.last_progress_ns) * 1e-9
             level, text = (

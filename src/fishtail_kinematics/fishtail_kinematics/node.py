@@ -36,6 +36,7 @@ from fishtail_kinematics.parameters import (
     geometry_from_parameters,
 )
 from fishtail_kinematics.ros_common import (
+    LEVEL_STALE,
     declare_geometry_parameters,
     diagnostic_array,
     float_descriptor,
@@ -47,7 +48,6 @@ from fishtail_msgs.msg import TailState
 OSCILLATORY_JOINTS = ["theta1", "theta2", "theta3"]
 UNDULATORY_JOINTS = [*OSCILLATORY_JOINTS, "theta4", "theta5"]
 _NAN = float("nan")
-_LEVEL_STALE = 3
 
 
 class KinematicsNode(Node):
@@ -268,7 +268,7 @@ class KinematicsNode(Node):
         now_ns = self.get_clock().now().nanoseconds
         stale_after = self.get_parameter("stale_timeout_sec").value
         if self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after:
-            level, text = _LEVEL_STALE, "no motor/joint_state received recently"
+            level, text = LEVEL_STALE, "no motor/joint_state received recently"
         elif self.rejected_since_report:
             level, text = 1, f"{self.rejected_since_report} inputs dropped: {self.last_reason}"
         else:

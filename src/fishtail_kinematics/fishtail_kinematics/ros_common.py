@@ -14,6 +14,9 @@ from rclpy.signals import SignalHandlerOptions
 
 from fishtail_kinematics.parameters import GEOMETRY_PARAMETERS, MECHANISM_PARAMETER, MECHANISMS
 
+#: diagnostic_msgs/DiagnosticStatus.STALE, as a plain int for diagnostic_array().
+LEVEL_STALE = 3
+
 
 def float_descriptor(
     text: str, low: float, high: float, read_only: bool = False
