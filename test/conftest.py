@@ -151,8 +151,18 @@ def _parameter_text(value: object) -> str:
     return str(value)
 
 
+def _default_sigint() -> None:
+    """In the child before exec: SIGINT back to its default action.
+
+    A background job of a non-interactive shell inherits an ignored SIGINT, and Python (so every
+    node, and ``ros2 launch``) keeps it ignored; a signal test must not depend on how pytest was
+    started.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 class NodeProcess:
-    """One node started as ``python -m <module> --ros-args ...`` in its own process group."""
+    """One process (a node, ``ros2 launch`` ...) started in its own process group."""
 
     def __init__(self, name: str, argv: list[str], log_dir: Path) -> None:
         """Start the process; its stdout and stderr go to ``log_dir/<name>.{stdout,stderr}``."""
@@ -165,7 +175,7 @@ class NodeProcess:
             # the ROS variables the ros_domain fixture set.
             self.popen = subprocess.Popen(
                 argv, cwd=ROOT, env=dict(os.environ), stdin=subprocess.DEVNULL,
-                stdout=out, stderr=err, start_new_session=True,
+                stdout=out, stderr=err, start_new_session=True, preexec_fn=_default_sigint,
             )  # fmt: skip
         self.pid = self.popen.pid
 
@@ -202,24 +212,50 @@ class NodeProcess:
             return None
 
     def stop(self) -> None:
-        """SIGINT, wait up to EXIT_TIMEOUT_S, then SIGKILL the whole process group."""
+        """SIGINT, wait up to EXIT_TIMEOUT_S, then SIGKILL the whole process group.
+
+        The group is killed even when the process itself has exited: children it left behind
+        (the nodes of a ``ros2 launch`` ended by SIGTERM) must not outlive the test.
+        """
         if self.popen.poll() is None:
             self.send_signal(signal.SIGINT)
-            if self.wait(EXIT_TIMEOUT_S) is None:
-                with contextlib.suppress(ProcessLookupError):
-                    os.killpg(self.pid, signal.SIGKILL)
-                self.popen.wait(EXIT_TIMEOUT_S)
+            self.wait(EXIT_TIMEOUT_S)
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(self.pid, signal.SIGKILL)
+        self.popen.wait(EXIT_TIMEOUT_S)
 
 
 @pytest.fixture
-def start_node(request, ros_domain, tmp_path) -> Callable[..., NodeProcess]:
+def start_process(request, ros_domain, tmp_path) -> Callable[[str, list[str]], NodeProcess]:
+    """Start processes on the test's domain: ``start_process(label, argv)``; stopped at teardown.
+
+    Teardown sends SIGINT to each process (all at once, so they shut down in parallel), waits,
+    then kills each process group.
+    """
+    processes: list[NodeProcess] = []
+    request.node.stash[_PROCESSES_KEY] = processes
+
+    def start(label: str, argv: list[str]) -> NodeProcess:
+        if any(p.name == label for p in processes):
+            label = f"{label}-{len(processes)}"
+        process = NodeProcess(label, argv, tmp_path)
+        processes.append(process)
+        return process
+
+    yield start
+    for process in processes:
+        process.send_signal(signal.SIGINT)
+    for process in processes:
+        process.stop()
+
+
+@pytest.fixture
+def start_node(start_process) -> Callable[..., NodeProcess]:
     """Start node processes: ``start_node("driver", params={...}, params_file=..., name=...)``.
 
     ``node`` is ``driver``, ``kinematics``, ``monitor`` or a module name; ``params`` become
     ``-p name:=value`` (floats stay doubles), after ``--params-file`` so that they override it.
     """
-    processes: list[NodeProcess] = []
-    request.node.stash[_PROCESSES_KEY] = processes
 
     def start(
         node: str,
@@ -234,18 +270,9 @@ def start_node(request, ros_domain, tmp_path) -> Callable[..., NodeProcess]:
             argv += ["--params-file", str(params_file)]
         for key, value in (params or {}).items():
             argv += ["-p", f"{key}:={_parameter_text(value)}"]
-        label = name or node
-        if any(p.name == label for p in processes):
-            label = f"{label}-{len(processes)}"
-        process = NodeProcess(label, argv, tmp_path)
-        processes.append(process)
-        return process
+        return start_process(name or node, argv)
 
-    yield start
-    for process in processes:
-        process.send_signal(signal.SIGINT)  # all at once: they shut down in parallel
-    for process in processes:
-        process.stop()
+    return start
 
 
 @pytest.hookimpl(hookwrapper=True)

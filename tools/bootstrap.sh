@@ -6,6 +6,9 @@
 # Usage: tools/bootstrap.sh [--force-build]
 #   --force-build   run colcon build even if the sources' build stamp is current
 # Environment: FISHTAIL_PYTHON  interpreter to create .venv with (must be CPython 3.11)
+#              FISHTAIL_ROS2_UPSTREAM  folder with install-ros2-tools.sh and the pinned upstream
+#                                      ROS 2 tool sources (default ../shared/upstream); installed
+#                                      into .venv/ros2-tools when present
 #
 # Output is one line per step with its elapsed time; a failing step prints the tail of its log.
 # Logs: log/bootstrap/<step>.log (colcon's own logs: log/latest_build).
@@ -22,7 +25,7 @@ force_build=0
 for arg in "$@"; do
   case $arg in
     --force-build) force_build=1 ;;
-    -h|--help) sed -n '2,11p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bootstrap: unknown argument: $arg" >&2; exit 2 ;;
   esac
 done
@@ -114,7 +117,18 @@ else
   echo "$pip_key" >"$STAMPS/pip"
 fi
 
-# --- 3. colcon build -----------------------------------------------------------------------------
+# --- 3. upstream ROS 2 tools (ros2 CLI, ros2 launch), when their pinned sources are at hand -----
+# They are not published as wheels; a system ROS 2 ships them. FISHTAIL_ROS2_UPSTREAM names the
+# folder that holds install-ros2-tools.sh and the archives (default: ../shared/upstream beside the
+# workspace). The script keeps its own stamp, so a second run is a hash of the archives.
+UPSTREAM=${FISHTAIL_ROS2_UPSTREAM:-$ROOT/../shared/upstream}
+if [ -f "$UPSTREAM/install-ros2-tools.sh" ]; then
+  step ros2tools bash "$UPSTREAM/install-ros2-tools.sh" "$VENV" "$VENV/ros2-tools"
+else
+  skip ros2tools "skipped: no $UPSTREAM/install-ros2-tools.sh (set FISHTAIL_ROS2_UPSTREAM)"
+fi
+
+# --- 4. colcon build -----------------------------------------------------------------------------
 # The build stamp hashes what a --symlink-install build depends on: the wheel set, and the content
 # of every file under src/ except Python files, which --symlink-install links (the package
 # directories themselves are symlinked, so new modules need no build either). Of those, setup.py

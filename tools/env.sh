@@ -13,6 +13,8 @@
 #   rclpy (librcl_action.so). With the path exported here and the guard unset, any process
 #   started from this shell, and its children, find the libraries. (A child given a hand-built
 #   environment must get LD_LIBRARY_PATH too, or no guard: pass os.environ on.)
+# - the upstream ROS 2 tools (`ros2`, `ros2 launch`) from .venv/ros2-tools, if make setup
+#   installed them (it does when ../shared/upstream or FISHTAIL_ROS2_UPSTREAM is there);
 # - ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and ROS_LOG_DIR=<ws>/log/ros, unless already set.
 # Safe to source more than once; returns non-zero if the workspace is not set up.
 
@@ -49,6 +51,11 @@ _ft_main() {
     source "$_ft_root/install/setup.bash"
   else
     echo "env.sh: $_ft_root/install/setup.bash is missing: run 'make setup' first" >&2
+  fi
+  # The upstream ROS 2 tools (ros2, ros2 launch), when make setup installed them.
+  if [ -f "$_ft_venv/ros2-tools/setup.bash" ]; then
+    # shellcheck disable=SC1091
+    source "$_ft_venv/ros2-tools/setup.bash"
   fi
   if ((had_u)); then set -u; fi
 

@@ -22,9 +22,12 @@ def generate_launch_description():
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
     namespace = LaunchConfiguration("namespace")
-    default_params = PathJoinSubstitution(
-        [FindPackageShare("fishtail_bringup"), "config", [mechanism, ".yaml"]]
-    )
+    # A list of substitutions is their concatenation. Jazzy's launch (3.4) accepts only plain
+    # substitutions as PathJoinSubstitution's items, so the ".yaml" suffix is appended outside it.
+    default_params = [
+        PathJoinSubstitution([FindPackageShare("fishtail_bringup"), "config", mechanism]),
+        ".yaml",
+    ]
     return LaunchDescription(
         [
             DeclareLaunchArgument(
