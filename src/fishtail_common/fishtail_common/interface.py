@@ -1,0 +1,113 @@
+"""The suite's interface: topics, QoS kinds, joint and frame names, diagnostic levels, nodes.
+
+Plain Python (no rclpy), so that the recorder, the offline analysis and the tests name topics the
+way the nodes do. Topic names are relative (a namespace moves the whole suite) except
+``/diagnostics``; :mod:`fishtail_common.ros` turns a :class:`QosKind` into an rclpy profile.
+
+>>> TAIL_STATE.name, TAIL_STATE.type
+('tail/state', 'fishtail_msgs/msg/TailState')
+>>> [topic.name for topic in SUITE_TOPICS if topic.qos is QosKind.SENSOR_DATA]
+['motor/joint_state', 'tail/joint_states', 'tail/tip', 'tail/state']
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+
+
+class Level(enum.IntEnum):
+    """diagnostic_msgs/DiagnosticStatus levels, for modules that do not import ROS messages."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    STALE = 3
+
+
+class QosKind(enum.Enum):
+    """How a topic is delivered; each kind is one rclpy profile (``ros.qos_profile``)."""
+
+    #: High-rate state: best effort, volatile, depth 5 (rclpy's qos_profile_sensor_data).
+    SENSOR_DATA = "sensor_data"
+    #: Commands and diagnostics: reliable, volatile, depth 10.
+    RELIABLE = "reliable"
+    #: One message per event that a late subscriber still wants: reliable, transient local,
+    #: depth 1 (the latest symmetry report).
+    LATCHED = "latched"
+
+
+@dataclasses.dataclass(frozen=True)
+class Topic:
+    """One topic of the suite."""
+
+    name: str
+    type: str  # rosbag2/rosidl form, package/msg/Name
+    qos: QosKind
+    description: str
+
+
+MOTOR_CMD_SPEED = Topic(
+    "motor/cmd_speed", "std_msgs/msg/Float64", QosKind.RELIABLE, "carrier speed command, rad/s >= 0"
+)
+MOTOR_JOINT_STATE = Topic(
+    "motor/joint_state",
+    "sensor_msgs/msg/JointState",
+    QosKind.SENSOR_DATA,
+    "carrier joint: unwrapped angle rad, velocity rad/s, stamped when the encoder was read",
+)
+TAIL_JOINT_STATES = Topic(
+    "tail/joint_states", "sensor_msgs/msg/JointState", QosKind.SENSOR_DATA, "theta1..theta5, rad"
+)
+TAIL_TIP = Topic(
+    "tail/tip", "geometry_msgs/msg/PointStamped", QosKind.SENSOR_DATA, "tail tip in the tail frame"
+)
+TAIL_STATE = Topic(
+    "tail/state", "fishtail_msgs/msg/TailState", QosKind.SENSOR_DATA, "everything the engine solved"
+)
+TAIL_SYMMETRY = Topic(
+    "tail/symmetry", "fishtail_msgs/msg/SymmetryReport", QosKind.LATCHED, "one report per beat"
+)
+TAIL_MARKERS = Topic(
+    "tail/markers",
+    "visualization_msgs/msg/MarkerArray",
+    QosKind.RELIABLE,
+    "ring, planet, links, joints and tip trail for RViz",
+)
+DIAGNOSTICS = Topic(
+    "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosKind.RELIABLE, "every node's health"
+)
+
+#: Every topic the suite publishes or commands, in data-flow order (what the recorder records).
+SUITE_TOPICS: tuple[Topic, ...] = (
+    MOTOR_CMD_SPEED,
+    MOTOR_JOINT_STATE,
+    TAIL_JOINT_STATES,
+    TAIL_TIP,
+    TAIL_STATE,
+    TAIL_SYMMETRY,
+    DIAGNOSTICS,
+)
+
+#: The joint the driver publishes and the kinematics node follows.
+CARRIER_JOINT = "carrier_joint"
+#: The frame of the tail mechanism: origin at the ring-gear centre O, x along the stroke.
+TAIL_FRAME = "tail_mechanism"
+
+
+@dataclasses.dataclass(frozen=True)
+class SuiteNode:
+    """One node of the suite: how ``ros2 run``/launch and ``fishtail-run`` start it."""
+
+    name: str  # the node's name (and fishtail-run's label)
+    package: str
+    executable: str  # installed under lib/<package>/ for ros2 run and launch_ros
+    module: str  # python -m <module> starts it without the ament index
+
+
+#: The suite, in start-up order (data flows from the first to the last).
+SUITE_NODES: tuple[SuiteNode, ...] = (
+    SuiteNode("driver", "fishtail_driver", "driver", "fishtail_driver.node"),
+    SuiteNode("kinematics", "fishtail_kinematics", "node", "fishtail_kinematics.node"),
+    SuiteNode("monitor", "fishtail_kinematics", "monitor", "fishtail_kinematics.monitor_node"),
+)
