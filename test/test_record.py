@@ -24,6 +24,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.rosbag2.storage_mcap import McapWriter
 
 from fishtail_bringup import record
+from fishtail_common.bag_types import suite_typestore
 from fishtail_msgs.msg import SymmetryReport
 
 FLOAT64 = "std_msgs/msg/Float64"
@@ -45,7 +46,7 @@ QOS = Qos(
 
 @pytest.fixture(scope="module")
 def store():
-    return record.suite_typestore()
+    return suite_typestore()
 
 
 class Clock:

@@ -47,23 +47,12 @@ from rosbags.interfaces import (
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.rosbag2.metadata import dump_qos_v9
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from ruamel.yaml import YAML
 
-PROGRAM = "fishtail-record"
-SENSOR = "sensor"  # best effort, like the publishers' sensor-data QoS
-RELIABLE = "reliable"
+from fishtail_common.bag_types import register_package_types, suite_typestore
+from fishtail_common.interface import SUITE_TOPICS, QosKind
 
-#: The suite's topics (relative names resolve in --namespace) with their types and QoS kind.
-SUITE_TOPICS: dict[str, tuple[str, str]] = {
-    "motor/joint_state": ("sensor_msgs/msg/JointState", SENSOR),
-    "motor/cmd_speed": ("std_msgs/msg/Float64", RELIABLE),
-    "tail/joint_states": ("sensor_msgs/msg/JointState", SENSOR),
-    "tail/tip": ("geometry_msgs/msg/PointStamped", SENSOR),
-    "tail/state": ("fishtail_msgs/msg/TailState", SENSOR),
-    "tail/symmetry": ("fishtail_msgs/msg/SymmetryReport", RELIABLE),
-    "/diagnostics": ("diagnostic_msgs/msg/DiagnosticArray", RELIABLE),
-}
+PROGRAM = "fishtail-record"
 DEFAULT_SEGMENT_SEC = 5.0
 DEFAULT_MAX_BUFFER_MB = 256.0
 #: Subscription queue depth: deep enough to ride out a pause of the writer (~0.5 s at 200 Hz).
@@ -84,43 +73,6 @@ def _say(text: str) -> None:
 
 def _error(text: str) -> None:
     print(f"{PROGRAM}: error: {text}", file=sys.stderr, flush=True)
-
-
-# --------------------------------------------------------------------------------------------
-# Message definitions
-
-
-def register_package_types(typestore, package: str) -> list[str]:
-    """Register every ``msg/*.msg`` of an installed interface package; the names registered.
-
-    The files are found through the ament index (``share/<package>/msg``). Raises LookupError if
-    the package or its message files cannot be found.
-    """
-    from ament_index_python.packages import (
-        PackageNotFoundError,
-        get_package_share_directory,
-    )
-
-    try:
-        share = Path(get_package_share_directory(package))
-    except (PackageNotFoundError, LookupError, ValueError) as error:
-        raise LookupError(f"interface package {package} not found in the ament index") from error
-    files = sorted((share / "msg").glob("*.msg"))
-    if not files:
-        raise LookupError(f"no message definitions in {share / 'msg'}")
-    types = {}
-    for path in files:
-        text = path.read_text(encoding="utf-8")
-        types.update(get_types_from_msg(text, f"{package}/msg/{path.stem}"))
-    typestore.register(types)
-    return sorted(types)
-
-
-def suite_typestore():
-    """The Jazzy typestore plus fishtail_msgs (read from its installed .msg files)."""
-    typestore = get_typestore(Stores.ROS2_JAZZY)
-    register_package_types(typestore, "fishtail_msgs")
-    return typestore
 
 
 # --------------------------------------------------------------------------------------------
@@ -534,8 +486,8 @@ class RecorderNode:
         self.node = rclpy.create_node("fishtail_recorder", namespace=namespace or None)
         node = self.node
         known = {
-            expand_topic_name(name, node.get_name(), node.get_namespace()): spec
-            for name, spec in SUITE_TOPICS.items()
+            expand_topic_name(topic.name, node.get_name(), node.get_namespace()): topic
+            for topic in SUITE_TOPICS
         }
         self.waiting: dict[str, str] = {}  # resolved name -> name as given
         self.subscribed: dict[str, str] = {}  # resolved name -> type
@@ -546,8 +498,9 @@ class RecorderNode:
             if resolved in self.subscribed or resolved in self.waiting:
                 continue
             if resolved in known:
-                msgtype, kind = known[resolved]
-                self._subscribe(resolved, msgtype, kind == RELIABLE, durable=False)
+                suite_topic = known[resolved]
+                reliable = suite_topic.qos is not QosKind.SENSOR_DATA
+                self._subscribe(resolved, suite_topic.type, reliable, durable=False)
             else:
                 self.waiting[resolved] = topic
         if self.waiting:
@@ -644,8 +597,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="bag directory to create (default fishtail_<date>-<time>)",
     )  # fmt: skip
     parser.add_argument(
-        "--topics", nargs="+", metavar="TOPIC", default=list(SUITE_TOPICS),
-        help="topics to record (default: the suite's: " + " ".join(SUITE_TOPICS) + ")",
+        "--topics", nargs="+", metavar="TOPIC", default=[topic.name for topic in SUITE_TOPICS],
+        help="topics to record (default: the suite's: "
+        + " ".join(topic.name for topic in SUITE_TOPICS) + ")",
     )  # fmt: skip
     parser.add_argument("--namespace", default="", help="namespace of the suite (relative topics)")
     parser.add_argument(

@@ -23,12 +23,15 @@ import time
 from pathlib import Path
 
 from fishtail_bringup.console import VERDICT_NAMES, status_line, verdict_text
-
-NODES = (
-    ("driver", "fishtail_driver.node"),
-    ("kinematics", "fishtail_kinematics.node"),
-    ("monitor", "fishtail_kinematics.monitor_node"),
+from fishtail_common.interface import (
+    DIAGNOSTICS,
+    MOTOR_CMD_SPEED,
+    SUITE_NODES,
+    TAIL_STATE,
+    TAIL_SYMMETRY,
+    SuiteNode,
 )
+
 COMMAND_PERIOD_S = 0.1
 SHUTDOWN_WAIT_S = 5.0
 
@@ -87,21 +90,22 @@ class Supervisor:
         self.print_lock = threading.Lock()
         self.clear_line = ""
 
-    def command_for(self, name: str, module: str) -> list[str]:
+    def command_for(self, node: SuiteNode) -> list[str]:
         """The command line of one node."""
-        command = [sys.executable, "-m", module, "--ros-args", "--params-file", str(self.config)]
+        command = [sys.executable, "-m", node.module, "--ros-args"]
+        command += ["--params-file", str(self.config)]
         if self.namespace:
             command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
-        if name == "driver":
+        if node.package == "fishtail_driver":
             for item in self.driver_params:
                 command += ["-p", item]
         return command
 
     def start(self) -> None:
         """Start every node in its own process group."""
-        for name, module in NODES:
+        for node in SUITE_NODES:
             process = subprocess.Popen(
-                self.command_for(name, module),
+                self.command_for(node),
                 stdout=subprocess.PIPE,
                 stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
@@ -110,8 +114,8 @@ class Supervisor:
                 text=True,
                 bufsize=1,
             )
-            self.processes[name] = process
-            threading.Thread(target=self._forward, args=(name, process), daemon=True).start()
+            self.processes[node.name] = process
+            threading.Thread(target=self._forward, args=(node.name, process), daemon=True).start()
 
     def _forward(self, name: str, process: subprocess.Popen) -> None:
         for line in process.stdout:
@@ -154,9 +158,9 @@ class Console:
         """Create the node with its publisher and subscriptions; ``say`` prints a line."""
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
-        from rclpy.qos import qos_profile_sensor_data
         from std_msgs.msg import Float64
 
+        from fishtail_common.ros import qos_profile
         from fishtail_msgs.msg import SymmetryReport, TailState
 
         self.rclpy = rclpy
@@ -167,12 +171,16 @@ class Console:
         self.state = None
         self.report = None
         self.diagnostics: dict[str, tuple[int, str]] = {}
-        self.publisher = self.node.create_publisher(Float64, "motor/cmd_speed", 10)
-        self.node.create_subscription(
-            TailState, "tail/state", self._on_state, qos_profile_sensor_data
+        self.publisher = self.node.create_publisher(
+            Float64, MOTOR_CMD_SPEED.name, qos_profile(MOTOR_CMD_SPEED)
         )
-        self.node.create_subscription(SymmetryReport, "tail/symmetry", self._on_report, 10)
-        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
+        subscriptions = (
+            (TailState, TAIL_STATE, self._on_state),
+            (SymmetryReport, TAIL_SYMMETRY, self._on_report),
+            (DiagnosticArray, DIAGNOSTICS, self._on_diagnostics),
+        )
+        for message_type, topic, callback in subscriptions:
+            self.node.create_subscription(message_type, topic.name, callback, qos_profile(topic))
         self.node.create_timer(COMMAND_PERIOD_S, self.command)
 
     def _on_state(self, message) -> None:
@@ -225,9 +233,9 @@ def main(argv: list[str] | None = None) -> int:
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
+    from fishtail_common.ros import install_stop_handlers
+
+    stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     supervisor = Supervisor(config, arguments.namespace, arguments.driver_param)
     interactive = sys.stdout.isatty()

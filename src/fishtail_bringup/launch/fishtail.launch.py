@@ -16,6 +16,8 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
+from fishtail_common.interface import SUITE_NODES
+
 
 def generate_launch_description():
     """Three nodes in one namespace, geometry from the params file of the chosen mechanism."""
@@ -27,6 +29,20 @@ def generate_launch_description():
     default_params = [
         PathJoinSubstitution([FindPackageShare("fishtail_bringup"), "config", mechanism]),
         ".yaml",
+    ]
+    backend = {"backend": LaunchConfiguration("backend")}
+    nodes = [
+        Node(
+            package=node.package,
+            executable=node.executable,
+            name=node.name,
+            namespace=namespace,
+            parameters=[params_file, backend]
+            if node.package == "fishtail_driver"
+            else [params_file],
+            output="screen",
+        )
+        for node in SUITE_NODES
     ]
     return LaunchDescription(
         [
@@ -40,27 +56,6 @@ def generate_launch_description():
             ),
             DeclareLaunchArgument("namespace", default_value="", description="namespace"),
             DeclareLaunchArgument("backend", default_value="sim", description="sim or serial"),
-            Node(
-                package="fishtail_driver",
-                executable="driver",
-                namespace=namespace,
-                parameters=[params_file, {"backend": LaunchConfiguration("backend")}],
-                output="screen",
-            ),
-            Node(
-                package="fishtail_kinematics",
-                executable="node",
-                name="kinematics",
-                namespace=namespace,
-                parameters=[params_file],
-                output="screen",
-            ),
-            Node(
-                package="fishtail_kinematics",
-                executable="monitor",
-                namespace=namespace,
-                parameters=[params_file],
-                output="screen",
-            ),
+            *nodes,
         ]
     )

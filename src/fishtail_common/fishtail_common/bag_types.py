@@ -12,28 +12,37 @@ from typing import Any
 
 
 def package_msg_dir(package: str) -> Path:
-    """``share/<package>/msg`` of an installed interface package (the ament index finds it)."""
-    from ament_index_python.packages import get_package_share_directory
+    """``share/<package>/msg`` of an installed interface package; LookupError if not found."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
 
-    return Path(get_package_share_directory(package)) / "msg"
+    try:
+        return Path(get_package_share_directory(package)) / "msg"
+    except (PackageNotFoundError, LookupError, ValueError) as error:
+        raise LookupError(f"interface package {package} not found in the ament index") from error
 
 
 def register_package_types(typestore: Any, package: str) -> list[str]:
-    """Register every ``msg/*.msg`` of an installed package not yet known; the names added."""
+    """Register every ``msg/*.msg`` of an installed package not yet known; the names added.
+
+    Raises LookupError if the package or its message files cannot be found.
+    """
     from rosbags.typesys import get_types_from_msg
 
+    directory = package_msg_dir(package)
+    files = sorted(directory.glob("*.msg"))
+    if not files:
+        raise LookupError(f"no message definitions in {directory}")
     types: dict[str, Any] = {}
-    for path in sorted(package_msg_dir(package).glob("*.msg")):
-        types.update(
-            get_types_from_msg(path.read_text(encoding="utf-8"), f"{package}/msg/{path.stem}")
-        )
+    for path in files:
+        text = path.read_text(encoding="utf-8")
+        types.update(get_types_from_msg(text, f"{package}/msg/{path.stem}"))
     new = {name: fields for name, fields in types.items() if name not in typestore.fielddefs}
     typestore.register(new)
     return sorted(new)
 
 
 def suite_typestore() -> Any:
-    """The ROS 2 Jazzy typestore with fishtail_msgs registered."""
+    """The ROS 2 Jazzy typestore with fishtail_msgs registered (LookupError if not installed)."""
     from rosbags.typesys import Stores, get_typestore
 
     typestore = get_typestore(Stores.ROS2_JAZZY)
