@@ -117,7 +117,8 @@ class Supervisor:
             self.processes[node.name] = process
             threading.Thread(target=self._forward, args=(node.name, process), daemon=True).start()
 
-    def _forward(self, name: str, process: subprocess.Popen) -> None:
+    def _forward(self, name: str, process: subprocess.Popen[str]) -> None:
+        assert process.stdout is not None  # started with stdout=PIPE
         for line in process.stdout:
             self.say(f"[{name}] {line.rstrip()}")
 

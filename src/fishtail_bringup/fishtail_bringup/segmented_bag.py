@@ -29,7 +29,7 @@ import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from rosbags.interfaces import Qos
+from rosbags.interfaces import Connection, Qos
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.rosbag2.metadata import dump_qos_v9
@@ -127,7 +127,7 @@ class SegmentedBag:
         self._segment_dir: Path | None = None
         self._segment_opened = 0.0
         self._segment_messages: list[tuple[str, int, bytes]] = []
-        self._connections: dict[str, object] = {}
+        self._connections: dict[str, Connection] = {}
         self._retry_at: float | None = None
         self._failing_since: float | None = None
         self._metadata_dirty = False
@@ -252,11 +252,13 @@ class SegmentedBag:
         topic_name, timestamp, data = item
         if self._writer is None:
             self._open_segment()
+        writer = self._writer
+        assert writer is not None  # opened above
         connection = self._connections.get(topic_name)
         if connection is None:
             with self._topics_lock:
                 topic = self._topics[topic_name]
-            connection = self._writer.add_connection(
+            connection = writer.add_connection(
                 topic.name,
                 topic.msgtype,
                 msgdef=topic.msgdef,
@@ -264,13 +266,14 @@ class SegmentedBag:
                 offered_qos_profiles=topic.qos,
             )
             self._connections[topic_name] = connection
-        self._writer.write(connection, timestamp, data)
+        writer.write(connection, timestamp, data)
 
     def _close_segment(self) -> None:
         writer, directory = self._writer, self._segment_dir
+        assert writer is not None and directory is not None  # only called with a segment open
         name = directory.name
         start, end = writer.min_timestamp, writer.max_timestamp
-        counts = collections.Counter()
+        counts: collections.Counter[str] = collections.Counter()
         for connection in writer.connections:
             counts[connection.topic] += writer.counts[connection.id]
         writer.close()

@@ -137,11 +137,16 @@ def run_node(
     :class:`~fishtail_common.parameters.ParameterValueError` is, one of ``startup_errors`` or
     rclpy's ParameterException) prints ``<label>: error: <reason>`` and returns 2, no traceback.
     """
+    refusals: tuple[type[Exception], ...] = (
+        ValueError,
+        *startup_errors,
+        rclpy.exceptions.ParameterException,
+    )
     stop = install_stop_handlers()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = factory()
-    except (ValueError, *startup_errors, rclpy.exceptions.ParameterException) as error:
+    except refusals as error:
         print(f"{label}: error: {error}", file=sys.stderr)
         rclpy.try_shutdown()
         return 2
