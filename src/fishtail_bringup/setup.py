@@ -14,8 +14,8 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
-        # The workspace's config/ (shared with the CLI) is installed here for the launch file.
-        (f"share/{PACKAGE}/config", glob("../../config/*.yaml") + glob("../../config/*.rviz")),
+        # The suite's parameter files and RViz config (the workspace's config/ links here).
+        (f"share/{PACKAGE}/config", glob("config/*.yaml") + glob("config/*.rviz")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

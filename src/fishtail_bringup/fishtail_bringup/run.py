@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 from fishtail_bringup.console import VERDICT_NAMES, status_line, verdict_text
+from fishtail_common.config_files import default_parameter_file
 from fishtail_common.interface import (
     DIAGNOSTICS,
     MOTOR_CMD_SPEED,
@@ -34,16 +35,6 @@ from fishtail_common.interface import (
 
 COMMAND_PERIOD_S = 0.1
 SHUTDOWN_WAIT_S = 5.0
-
-
-def default_config(mechanism: str) -> Path:
-    """config/<mechanism>.yaml of the workspace, else the copy installed with this package."""
-    root = os.environ.get("FISHTAIL_ROOT")
-    if root and (Path(root) / "config" / f"{mechanism}.yaml").is_file():
-        return Path(root) / "config" / f"{mechanism}.yaml"
-    from ament_index_python.packages import get_package_share_directory
-
-    return Path(get_package_share_directory("fishtail_bringup")) / "config" / f"{mechanism}.yaml"
 
 
 def _speed(text: str) -> float:
@@ -227,7 +218,11 @@ class Console:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``fishtail-run``."""
     arguments = build_parser().parse_args(argv)
-    config = arguments.config or default_config(arguments.mechanism)
+    try:
+        config = arguments.config or default_parameter_file(arguments.mechanism)
+    except LookupError as error:
+        print(f"fishtail-run: error: {error}", file=sys.stderr)
+        return 2
     if not config.is_file():
         print(f"fishtail-run: error: no parameter file {config}", file=sys.stderr)
         return 2

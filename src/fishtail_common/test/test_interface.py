@@ -56,3 +56,21 @@ def test_levels_are_diagnostic_msgs_levels():
     assert Level.WARN == int.from_bytes(DiagnosticStatus.WARN, "little")
     assert Level.ERROR == int.from_bytes(DiagnosticStatus.ERROR, "little")
     assert Level.STALE == int.from_bytes(DiagnosticStatus.STALE, "little")
+
+
+def test_default_parameter_file_prefers_the_workspace(monkeypatch, tmp_path):
+    from fishtail_common.config_files import default_parameter_file
+
+    (tmp_path / "config").mkdir()
+    (tmp_path / "config" / "undulatory.yaml").write_text("/**: {}\n")
+    monkeypatch.setenv("FISHTAIL_ROOT", str(tmp_path))
+    assert default_parameter_file("undulatory") == tmp_path / "config" / "undulatory.yaml"
+
+
+def test_default_parameter_file_falls_back_to_the_install(monkeypatch, tmp_path):
+    from fishtail_common.config_files import default_parameter_file
+
+    monkeypatch.setenv("FISHTAIL_ROOT", str(tmp_path))  # a workspace without that file
+    path = default_parameter_file("oscillatory")
+    assert path.parts[-4:] == ("share", "fishtail_bringup", "config", "oscillatory.yaml")
+    assert path.is_file()
