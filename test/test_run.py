@@ -58,3 +58,50 @@ def test_sigint_stops_every_node(ros_domain):
     assert process.returncode == 0, output
     assert "motor commanded to stop; driver exiting" in output
     assert "non-zero status" not in output and "killed" not in output
+
+
+def test_a_subset_of_nodes_on_this_computer(ros_domain, start_node):
+    """The shore half: kinematics and monitor only, following a driver started elsewhere."""
+    driver = start_node("driver", params={"cmd_timeout_sec": 0.5})
+    completed = subprocess.run(
+        [sys.executable, "-m", "fishtail_bringup.run", "--nodes", "kinematics,monitor",
+         "--speed", "12", "--duration", "6"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+    )  # fmt: skip
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 0, output
+    assert "kinematics up" in output and "monitor up" in output
+    assert "driver up" not in output  # the driver is the other process's
+    last = next(line for line in output.splitlines() if line.startswith("fishtail-run: last state"))
+    assert " OK: symmetric" in last, output  # the console's command reached that driver
+    assert driver.returncode is None
+
+
+def test_no_command_leaves_the_motor_to_another_computer(ros_domain, ros):
+    """``--nodes driver --no-command`` (the fish half): the driver runs, nobody commands it."""
+    from std_msgs.msg import Float64
+
+    commands = ros.record(Float64, "motor/cmd_speed", 10)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "fishtail_bringup.run", "--nodes", "driver", "--no-command"],
+        env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    try:
+        ros.wait_for_subscribers("motor/cmd_speed", count=1)  # the driver's
+        ros.spin_for(1.0)  # ten command periods
+        assert len(commands) == 0
+        assert ros.node.count_publishers("motor/cmd_speed") == 0
+    finally:
+        process.send_signal(signal.SIGINT)
+        output, _ = process.communicate(timeout=RUN_TIMEOUT_S)
+    assert process.returncode == 0, output
+    assert "driver up" in output and "kinematics up" not in output
+
+
+def test_unknown_node_name_is_a_one_line_error():
+    completed = subprocess.run(
+        [sys.executable, "-m", "fishtail_bringup.run", "--nodes", "driver,planner"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+    )  # fmt: skip
+    assert completed.returncode == 2
+    assert "unknown node planner: choose from driver, kinematics, monitor" in completed.stderr

@@ -51,6 +51,17 @@ def _duration(text: str) -> float:
     return value
 
 
+def _node_names(text: str) -> tuple[SuiteNode, ...]:
+    known = {node.name: node for node in SUITE_NODES}
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    unknown = [name for name in names if name not in known]
+    if unknown or not names:
+        raise argparse.ArgumentTypeError(
+            f"unknown node {', '.join(unknown) or '(none)'}: choose from {', '.join(known)}"
+        )
+    return tuple(node for node in SUITE_NODES if node.name in names)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
     parser = argparse.ArgumentParser(prog="fishtail-run", description=__doc__.splitlines()[0])
@@ -59,6 +70,20 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--speed", type=_speed, default=4.0, help="carrier speed, rad/s (4)")
     parser.add_argument("--duration", type=_duration, help="stop after this many seconds")
     parser.add_argument("--namespace", default="", help="namespace for the whole suite")
+    parser.add_argument(
+        "--nodes",
+        type=_node_names,
+        default=SUITE_NODES,
+        metavar="NAME,...",
+        help="start only these nodes (default: "
+        + ",".join(node.name for node in SUITE_NODES)
+        + "); e.g. driver on the fish's computer, kinematics,monitor on the shore",
+    )
+    parser.add_argument(
+        "--no-command",
+        action="store_true",
+        help="do not publish motor/cmd_speed (another computer commands the motor)",
+    )
     parser.add_argument(
         "--driver-param",
         action="append",
@@ -72,8 +97,15 @@ def build_parser() -> argparse.ArgumentParser:
 class Supervisor:
     """Starts the node processes, forwards their output, stops them."""
 
-    def __init__(self, config: Path, namespace: str, driver_params: list[str]) -> None:
+    def __init__(
+        self,
+        config: Path,
+        namespace: str,
+        driver_params: list[str],
+        nodes: tuple[SuiteNode, ...] = SUITE_NODES,
+    ) -> None:
         """Remember how to start the nodes."""
+        self.nodes = nodes
         self.config = config
         self.namespace = namespace
         self.driver_params = driver_params
@@ -94,7 +126,7 @@ class Supervisor:
 
     def start(self) -> None:
         """Start every node in its own process group."""
-        for node in SUITE_NODES:
+        for node in self.nodes:
             process = subprocess.Popen(
                 self.command_for(node),
                 stdout=subprocess.PIPE,
@@ -146,7 +178,7 @@ class Supervisor:
 class Console:
     """The in-process node: commands the speed, keeps the latest values for the status line."""
 
-    def __init__(self, speed_rad_s: float, namespace: str, say) -> None:
+    def __init__(self, speed_rad_s: float | None, namespace: str, say) -> None:
         """Create the node with its publisher and subscriptions; ``say`` prints a line."""
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
@@ -163,9 +195,14 @@ class Console:
         self.state = None
         self.report = None
         self.diagnostics: dict[str, tuple[int, str]] = {}
-        self.publisher = self.node.create_publisher(
-            Float64, MOTOR_CMD_SPEED.name, qos_profile(MOTOR_CMD_SPEED)
-        )
+        # Only a console that commands the motor publishes the command topic: the computer that
+        # does is the one whose loss the driver's watchdog answers.
+        self.publisher = None
+        if speed_rad_s is not None:
+            self.publisher = self.node.create_publisher(
+                Float64, MOTOR_CMD_SPEED.name, qos_profile(MOTOR_CMD_SPEED)
+            )
+            self.node.create_timer(COMMAND_PERIOD_S, self.command)
         subscriptions = (
             (TailState, TAIL_STATE, self._on_state),
             (SymmetryReport, TAIL_SYMMETRY, self._on_report),
@@ -173,7 +210,6 @@ class Console:
         )
         for message_type, topic, callback in subscriptions:
             self.node.create_subscription(message_type, topic.name, callback, qos_profile(topic))
-        self.node.create_timer(COMMAND_PERIOD_S, self.command)
 
     def _on_state(self, message) -> None:
         self.state = message
@@ -193,8 +229,10 @@ class Console:
                 self.say(f"[diagnostics] {status.name}: {name}: {status.message}")
 
     def command(self, speed: float | None = None) -> None:
-        """Publish the carrier speed."""
-        self.publisher.publish(self.Float64(data=self.speed if speed is None else speed))
+        """Publish the carrier speed (nothing when this console does not command the motor)."""
+        value = self.speed if speed is None else speed
+        if value is not None and self.publisher is not None:
+            self.publisher.publish(self.Float64(data=value))
 
     def line(self, elapsed_s: float) -> str:
         """The current status line."""
@@ -233,16 +271,18 @@ def main(argv: list[str] | None = None) -> int:
 
     stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    supervisor = Supervisor(config, arguments.namespace, arguments.driver_param)
+    supervisor = Supervisor(config, arguments.namespace, arguments.driver_param, arguments.nodes)
+    speed = None if arguments.no_command else arguments.speed
     interactive = sys.stdout.isatty()
     if interactive:
         supervisor.clear_line = "\r\033[K"
     supervisor.say(
-        f"fishtail-run: {config} at {arguments.speed:g} rad/s"
+        f"fishtail-run: {', '.join(node.name for node in arguments.nodes)} with {config}, "
+        + ("motor commanded elsewhere" if speed is None else f"at {speed:g} rad/s")
         + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
     )
     supervisor.start()
-    console = Console(arguments.speed, arguments.namespace, supervisor.say)
+    console = Console(speed, arguments.namespace, supervisor.say)
     executor = rclpy.executors.SingleThreadedExecutor()
     executor.add_node(console.node)
     started = time.monotonic()
@@ -267,8 +307,9 @@ def main(argv: list[str] | None = None) -> int:
                     sys.stdout.flush()
                 next_print = now + (0.25 if interactive else 1.0)
     finally:
-        console.speed = 0.0
-        console.command(0.0)
+        if speed is not None:
+            console.speed = 0.0
+            console.command(0.0)
         if interactive:
             sys.stdout.write("\n")
         statuses = supervisor.stop()
