@@ -21,9 +21,11 @@ and ``diff_controller.h``; ``o`` and the ``b`` reply without a leading space wit
 - the motors are :class:`fishtail_driver.motor_model.SimulatedMotor` (first-order speed lag: the
   board's PID is taken as ideal up to that lag).
 
-Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply, ``--drop-rate`` loses
-a command or its reply, ``--garble-rate`` corrupts a reply (a flipped byte, a truncated line, a
-binary line, an oversized line) or the command letter (the board answers ``Invalid Command``),
+Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply (a slow board; from
+``--delay-after-s`` on only, and SIGUSR2 switches the delay off and on again, so that a host can
+connect to a board that turns slow later), ``--drop-rate`` loses a command or its reply,
+``--garble-rate`` corrupts a reply (a flipped byte, a truncated line, a binary line, an oversized
+line) or the command letter (the board answers ``Invalid Command``),
 ``--reset-after-s`` resets the board once (counts back to 0, silent for ``--boot-ms``), and so
 does every SIGUSR1 (a reset when the caller chooses, e.g. once the motor turns),
 ``--disconnect-after-s`` unplugs the pty once for ``--disconnect-for-s`` and then plugs in a new
@@ -96,6 +98,7 @@ class BoardConfig:
     arg_buffer_bytes: int = 32
     boot_ms: float = 0.0
     delay_ms: float = 0.0
+    delay_after_s: float | None = None
     drop_rate: float = 0.0
     garble_rate: float = 0.0
     reset_after_s: float | None = None
@@ -118,6 +121,8 @@ class BoardConfig:
         for name in ("boot_ms", "delay_ms", "disconnect_for_s"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.delay_after_s is not None and not self.delay_after_s >= 0:
+            raise ValueError(f"delay_after_s must be >= 0, got {self.delay_after_s}")
 
 
 @dataclasses.dataclass
@@ -153,6 +158,11 @@ class Firmware:
         self.time = now
         self._warn = warn
         self.argument_overflows = 0
+        #: (board time, left, right) of every ``e`` answered: the truth a host's samples are
+        #: checked against (bounded: the newest readings only).
+        self.encoder_reads: collections.deque[tuple[float, int, int]] = collections.deque(
+            maxlen=100_000
+        )
         self.autostop_at: float | None = None
         #: When the auto-stop fired (board clock), for tests: it must not while motion is wanted.
         self.auto_stop_times: list[float] = []
@@ -255,7 +265,9 @@ class Firmware:
             prefix = " " if self.config.variant == "hbrobotics" else ""
             return f"{prefix}{self.config.baud}\r\n".encode("ascii")
         if cmd == "e":
-            return f"{self.encoder(0)} {self.encoder(1)}\r\n".encode("ascii")
+            left, right = self.encoder(0), self.encoder(1)
+            self.encoder_reads.append((now, left, right))
+            return f"{left} {right}\r\n".encode("ascii")
         if cmd == "r":
             self.offsets = [-motor.encoder_counts() for motor in self.motors]
             self.targets = [0, 0]
@@ -334,6 +346,12 @@ class FakeBoard:
         )  # fmt: skip
         self._replug_at: float | None = None
         self._reset_requested = threading.Event()
+        #: Whether replies are delayed by ``delay_ms`` now (see :meth:`set_slow`).
+        self.slow = config.delay_after_s is None
+        self._slow_at = (
+            None if config.delay_after_s is None else self.start_time + config.delay_after_s
+        )
+        self._toggle_slow_requested = threading.Event()
         self.commands: list[tuple[float, str]] = []
         self.counts = collections.Counter()
 
@@ -451,6 +469,28 @@ class FakeBoard:
         self._reset_requested.set()
         self._wake()
 
+    def set_slow(self, slow: bool) -> None:
+        """Delay the replies to commands received from now on by ``delay_ms`` (or not).
+
+        Replies already queued keep their time, and replies never overtake each other (one serial
+        line), so a reply to a later command may still wait behind a delayed one.
+        """
+
+        def action() -> None:
+            now = self._clock()
+            self._slow_at = None
+            if self.slow != slow:
+                self.slow = slow
+                self.counts["slow_on" if slow else "slow_off"] += 1
+                self._record(now, f"# slow {'on' if slow else 'off'}")
+
+        self._call(action)
+
+    def request_slow_toggle(self) -> None:
+        """Switch the reply delay off or on at the loop's next turn (safe from signal handlers)."""
+        self._toggle_slow_requested.set()
+        self._wake()
+
     def stop(self) -> None:
         """Ask :meth:`run` to return (safe from signal handlers and other threads)."""
         self._stop.set()
@@ -490,7 +530,8 @@ class FakeBoard:
             out = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 12))) + b"\r\n"
         elif garble == "oversized":
             out = bytes(rng.randrange(0x30, 0x3A) for _ in range(300)) + b"\r\n"
-        start = max(self._tx_clock, now + config.delay_ms / 1000.0)
+        delay_s = config.delay_ms / 1000.0 if self.slow else 0.0
+        start = max(self._tx_clock, now + delay_s)
         self._tx_clock = start + len(out) * self.byte_s
         self._tx.append((self._tx_clock, out))
 
@@ -518,6 +559,18 @@ class FakeBoard:
                     raise
 
     def _scheduled(self, now: float) -> None:
+        if self._slow_at is not None and now >= self._slow_at:
+            self._slow_at = None
+            self.slow = True
+            self.counts["slow_on"] += 1
+            self._record(now, "# slow on (scheduled)")
+        if self._toggle_slow_requested.is_set():
+            self._toggle_slow_requested.clear()
+            self._slow_at = None
+            self.slow = not self.slow
+            self.counts["slow_on" if self.slow else "slow_off"] += 1
+            self._record(now, f"# slow {'on' if self.slow else 'off'} (requested)")
+            self._warn(f"reply delay {'on' if self.slow else 'off'} (requested)")
         if self._reset_requested.is_set():
             self._reset_requested.clear()
             self.counts["resets"] += 1
@@ -550,7 +603,7 @@ class FakeBoard:
             candidates.append(self._rx[0][0])
         if self._tx:
             candidates.append(self._tx[0][0])
-        for moment in (self._reset_at, self._unplug_at, self._replug_at):
+        for moment in (self._reset_at, self._unplug_at, self._replug_at, self._slow_at):
             if moment is not None:
                 candidates.append(moment)
         return min(candidates)
@@ -618,6 +671,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="fishtail-fake-board",
         description="Emulated ROSArduinoBridge motor board on a pty (prints the device path).",
         epilog="Signals: SIGUSR1 resets the board (counts back to 0, deaf for --boot-ms); "
+        "SIGUSR2 switches the reply delay of --delay-ms off and on again; "
         "SIGINT, SIGTERM and SIGHUP end it.",
     )
     add = parser.add_argument
@@ -639,7 +693,9 @@ def _parser() -> argparse.ArgumentParser:
     add("--encoder-offset", type=int, default=0, help="initial encoder count (test the wrap)")
     add("--arg-buffer", type=int, default=32, help="firmware argument buffer size [bytes]")
     add("--boot-ms", type=float, default=0.0, help="input ignored this long after power-up")
-    add("--delay-ms", type=float, default=0.0, help="delay every reply")
+    add("--delay-ms", type=float, default=0.0, help="delay every reply (a slow board)")
+    add("--delay-after-s", type=float, default=None,
+        help="answer at once until this long after start, then delay replies by --delay-ms")
     add("--drop-rate", type=float, default=0.0, help="probability of losing a command/reply")
     add("--garble-rate", type=float, default=0.0, help="probability of corrupting an exchange")
     add("--reset-after-s", type=float, default=None, help="reset the board once, after this")
@@ -666,6 +722,7 @@ def main(argv: list[str] | None = None) -> int:
             arg_buffer_bytes=args.arg_buffer,
             boot_ms=args.boot_ms,
             delay_ms=args.delay_ms,
+            delay_after_s=args.delay_after_s,
             drop_rate=args.drop_rate,
             garble_rate=args.garble_rate,
             reset_after_s=args.reset_after_s,
@@ -682,6 +739,7 @@ def main(argv: list[str] | None = None) -> int:
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, lambda *_: board.stop())
     signal.signal(signal.SIGUSR1, lambda *_: board.request_reset())
+    signal.signal(signal.SIGUSR2, lambda *_: board.request_slow_toggle())
     try:
         board.run()
     except BrokenPipeError:

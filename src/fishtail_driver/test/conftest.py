@@ -8,6 +8,8 @@
   ``fishtail-fake-board`` runs), its pty path read from its stdout; killed at teardown.
 * ``serial_backend(port, opener=None, **config)``: a started :class:`SerialBackend`; closed at
   teardown.
+* ``driver_run(link, **params)``: the driver node (backend:=serial) as a process at ``link``, with
+  the probe recording motor/joint_state and /diagnostics and publishing speed commands.
 * ``ros_domain`` / ``ros_probe``: a ROS domain of our own (the same lock directory as the
   workspace's integration tests, so parallel runs never share a domain), localhost discovery,
   ROS_LOG_DIR in tmp_path, and a probe node with recording subscriptions.
@@ -36,6 +38,8 @@ from fishtail_driver.fake_board import BoardConfig, FakeBoard
 from fishtail_driver.serial_backend import SerialBackend, SerialConfig
 
 POLL_S = 0.005
+#: Discovery takes 0.3-2.5 s on this kind of machine; waits for it get a wide margin.
+DISCOVERY_TIMEOUT_S = 15.0
 
 
 def pytest_configure(config):
@@ -352,3 +356,108 @@ def driver_process(ros_domain, tmp_path) -> Callable[..., NodeProcess]:
     yield start
     for process in processes:
         process.stop()
+
+
+class DriverRun:
+    """The driver node (backend:=serial) at ``link``, the probe's recorders, a speed publisher."""
+
+    def __init__(self, probe, driver_process, link: Path, **params) -> None:
+        """Start the driver and subscribe; commands are published every 0.1 s once set."""
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.qos import QoSProfile, qos_profile_sensor_data
+        from sensor_msgs.msg import JointState
+        from std_msgs.msg import Float64
+
+        self.probe = probe
+        self.driver = driver_process(
+            params={
+                "backend": "serial",
+                "serial_port": str(link),
+                "serial_poll_rate_hz": 100.0,
+                "diagnostics_period_sec": 0.2,
+                "cmd_timeout_sec": 0.5,
+                # Above the poll rate: at equal rates the publish ticks and the polls alias and
+                # some readings are never published (a WARN for the rate, rightly).
+                "publish_rate_hz": 200.0,
+                **params,
+            }
+        )
+        sensor = QoSProfile(depth=5000)
+        sensor.reliability = qos_profile_sensor_data.reliability
+        sensor.durability = qos_profile_sensor_data.durability
+        self.joints = probe.record(JointState, "motor/joint_state", sensor)
+        self.diagnostics = probe.record(DiagnosticArray, "/diagnostics", 100)
+        publisher = probe.node.create_publisher(Float64, "motor/cmd_speed", 10)
+        self.speed: float | None = None
+
+        def command() -> None:
+            if self.speed is not None:
+                publisher.publish(Float64(data=self.speed))
+
+        probe.node.create_timer(0.1, command)
+
+    def wait(self, predicate, timeout: float, what: str) -> None:
+        """Spin until ``predicate()``; fails at once (with its output) if the driver exits."""
+
+        def check() -> object:
+            if self.driver.popen.poll() is not None:
+                raise AssertionError(f"the driver exited while waiting for {what}:\n"
+                                     f"{self.driver.output()}")  # fmt: skip
+            return predicate()
+
+        self.probe.spin_until(check, timeout, what)
+
+    def statuses(self, mark: int = 0) -> list[tuple[int, str, dict[str, str]]]:
+        """(level, message, values) of the driver's motor status, from diagnostics[mark:]."""
+        found = []
+        for array in self.diagnostics[mark:]:
+            for status in array.status:
+                if status.name.startswith("/driver:"):
+                    level = status.level[0] if isinstance(status.level, bytes) else status.level
+                    values = {pair.key: pair.value for pair in status.values}
+                    found.append((int(level), status.message, values))
+        return found
+
+    def counter(self, key: str) -> int:
+        """A counter of the newest status (0 before any status, or if never counted)."""
+        found = self.statuses()
+        return int(found[-1][2].get(key, "0") or 0) if found else 0
+
+    def connected_mark(self) -> int:
+        """Index into diagnostics of the first status saying connected."""
+        for index, array in enumerate(list(self.diagnostics)):
+            if any(pair.key == "connected" and pair.value == "true"
+                   for status in array.status for pair in status.values):  # fmt: skip
+                return index
+        raise AssertionError("never connected")
+
+    def angle(self) -> float:
+        """The newest published angle."""
+        return self.joints[-1].position[0] if self.joints else 0.0
+
+    def start_motion(self, speed: float) -> None:
+        """Wait for the connection and the command subscription, then command ``speed``."""
+        self.wait(lambda: any(v.get("connected") == "true" for _, _, v in self.statuses()),
+                  DISCOVERY_TIMEOUT_S, "the driver connected to the board")  # fmt: skip
+        self.wait(lambda: self.probe.node.count_subscribers("motor/cmd_speed") >= 1,
+                  DISCOVERY_TIMEOUT_S, "the driver's command subscription")  # fmt: skip
+        self.speed = speed
+
+    def stop(self) -> str:
+        """SIGINT: the driver must exit 0 without a traceback; returns its output."""
+        self.driver.signal(signal.SIGINT)
+        status = self.driver.wait(10.0)
+        output = self.driver.output()
+        assert status == 0, output
+        assert "Traceback" not in output, output
+        return output
+
+
+@pytest.fixture
+def driver_run(ros_probe, driver_process) -> Callable[..., DriverRun]:
+    """``driver_run(link, **params)``: a :class:`DriverRun`; the driver is stopped at teardown."""
+
+    def start(link: Path, **params) -> DriverRun:
+        return DriverRun(ros_probe, driver_process, link, **params)
+
+    return start

@@ -63,7 +63,7 @@ def test_driver_serial_end_to_end(ros_probe, board_process, driver_process, tmp_
             "serial_poll_rate_hz": 100.0,
             "diagnostics_period_sec": 0.2,
             "cmd_timeout_sec": 0.5,
-            "publish_rate_hz": 100.0,
+            "publish_rate_hz": 200.0,
         }
     )
     probe = ros_probe
@@ -147,94 +147,6 @@ def test_driver_serial_end_to_end(ros_probe, board_process, driver_process, tmp_
 # Faults on a connected board, injected by fishtail-fake-board, observed through ROS only.
 
 
-class DriverRun:
-    """The driver node (backend:=serial) at ``link``, the probe's recorders, a speed publisher."""
-
-    def __init__(self, probe, driver_process, link: Path, **params) -> None:
-        """Start the driver and subscribe; commands are published every 0.1 s once set."""
-        self.probe = probe
-        self.driver = driver_process(
-            params={
-                "backend": "serial",
-                "serial_port": str(link),
-                "serial_poll_rate_hz": 100.0,
-                "diagnostics_period_sec": 0.2,
-                "cmd_timeout_sec": 0.5,
-                "publish_rate_hz": 100.0,
-                **params,
-            }
-        )
-        sensor = QoSProfile(depth=5000)
-        sensor.reliability = qos_profile_sensor_data.reliability
-        sensor.durability = qos_profile_sensor_data.durability
-        self.joints = probe.record(JointState, "motor/joint_state", sensor)
-        self.diagnostics = probe.record(DiagnosticArray, "/diagnostics", 100)
-        publisher = probe.node.create_publisher(Float64, "motor/cmd_speed", 10)
-        self.speed: float | None = None
-
-        def command() -> None:
-            if self.speed is not None:
-                publisher.publish(Float64(data=self.speed))
-
-        probe.node.create_timer(0.1, command)
-
-    def wait(self, predicate, timeout: float, what: str) -> None:
-        """Spin until ``predicate()``; fails at once (with its output) if the driver exits."""
-
-        def check() -> object:
-            if self.driver.popen.poll() is not None:
-                raise AssertionError(f"the driver exited while waiting for {what}:\n"
-                                     f"{self.driver.output()}")  # fmt: skip
-            return predicate()
-
-        self.probe.spin_until(check, timeout, what)
-
-    def statuses(self, mark: int = 0) -> list[tuple[int, str, dict[str, str]]]:
-        """(level, message, values) of the driver's motor status, from diagnostics[mark:]."""
-        found = []
-        for array in self.diagnostics[mark:]:
-            for status in array.status:
-                if status.name.startswith("/driver:"):
-                    level = status.level[0] if isinstance(status.level, bytes) else status.level
-                    values = {pair.key: pair.value for pair in status.values}
-                    found.append((int(level), status.message, values))
-        return found
-
-    def counter(self, key: str) -> int:
-        """A counter of the newest status (0 before any status, or if never counted)."""
-        found = self.statuses()
-        return int(found[-1][2].get(key, "0") or 0) if found else 0
-
-    def connected_mark(self) -> int:
-        """Index into diagnostics of the first status saying connected."""
-        for index, array in enumerate(list(self.diagnostics)):
-            if any(pair.key == "connected" and pair.value == "true"
-                   for status in array.status for pair in status.values):  # fmt: skip
-                return index
-        raise AssertionError("never connected")
-
-    def angle(self) -> float:
-        """The newest published angle."""
-        return self.joints[-1].position[0] if self.joints else 0.0
-
-    def start_motion(self, speed: float) -> None:
-        """Wait for the connection and the command subscription, then command ``speed``."""
-        self.wait(lambda: any(v.get("connected") == "true" for _, _, v in self.statuses()),
-                  DISCOVERY_S, "the driver connected to the board")  # fmt: skip
-        self.wait(lambda: self.probe.node.count_subscribers("motor/cmd_speed") >= 1,
-                  DISCOVERY_S, "the driver's command subscription")  # fmt: skip
-        self.speed = speed
-
-    def stop(self) -> str:
-        """SIGINT: the driver must exit 0 without a traceback; returns its output."""
-        self.driver.signal(signal.SIGINT)
-        status = self.driver.wait(10.0)
-        output = self.driver.output()
-        assert status == 0, output
-        assert "Traceback" not in output, output
-        return output
-
-
 #: How far a corrupt reply can set the published angle back. The motor only turns forwards, but
 #: a flipped digit that still reads as a plausible count (within the backend's one-poll window) is
 #: published, and the next reading corrects it; the backend takes a step back of more than 0.2 rad
@@ -269,9 +181,7 @@ TRANSIENT_FAULTS = ("timeouts", "garbled", "partial_replies", "binary", "oversiz
                     "invalid_command")  # fmt: skip
 
 
-def test_driver_survives_corrupt_and_lost_replies(
-    ros_probe, board_process, driver_process, tmp_path
-):
+def test_driver_survives_corrupt_and_lost_replies(board_process, driver_run, tmp_path):
     """Timeouts, garbled/partial/binary/oversized replies, Invalid Command: counted, WARN, no jump.
 
     The board corrupts about one exchange in eight and loses one in thirty while the motor
@@ -283,7 +193,7 @@ def test_driver_survives_corrupt_and_lost_replies(
     board = board_process(link, "--garble-rate", "0.12", "--drop-rate", "0.03",
                           "--delay-ms", "2", "--seed", "11")  # fmt: skip
     board.next_path()
-    run = DriverRun(ros_probe, driver_process, link, serial_read_timeout_sec=0.05)
+    run = driver_run(link, serial_read_timeout_sec=0.05)
     run.start_motion(5.0)
     run.wait(lambda: run.angle() > 0.5, 5.0, "the joint_state angle to advance")
     # Count from a status published after the motor turned: the faults must come while it does.
@@ -313,9 +223,7 @@ def test_driver_survives_corrupt_and_lost_replies(
     run.stop()
 
 
-def test_driver_continues_the_angle_across_a_board_reset(
-    ros_probe, board_process, driver_process, tmp_path
-):
+def test_driver_continues_the_angle_across_a_board_reset(board_process, driver_run, tmp_path):
     """A board reset mid-run (counts back to 0): counted, phase re-base WARN, the angle goes on.
 
     The reset comes when the test chooses (SIGUSR1 to fishtail-fake-board, once the angle is
@@ -326,7 +234,7 @@ def test_driver_continues_the_angle_across_a_board_reset(
     board = board_process(link, "--boot-ms", "100", "--garble-rate", "0.03",
                           "--drop-rate", "0.01", "--seed", "5", log=log)  # fmt: skip
     board.next_path()
-    run = DriverRun(ros_probe, driver_process, link)
+    run = driver_run(link)
     run.start_motion(5.0)
     run.wait(lambda: run.angle() > 3.0, 5.0, "the joint_state angle to advance")
     resets, rebases = run.counter("board_resets"), run.counter("phase_rebases")

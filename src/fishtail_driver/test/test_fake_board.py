@@ -144,3 +144,56 @@ def test_sigusr1_resets_the_board(board_process, tmp_path, wait_until):
         assert 0 <= after < before // 2, (before, after)
         assert ask(b"m 40 0") == b"OK\r\n"  # the board still answers
     assert process.popen.poll() is None
+
+
+def test_slow_switch_delays_replies_from_delay_after_s_and_sigusr2(board_process, tmp_path):
+    """``--delay-ms`` from ``--delay-after-s`` on; SIGUSR2 switches it off and on; order kept.
+
+    Checked on the board's log (no timing of this process): the scheduled and requested
+    switches are logged, and every ``e`` is still answered, in order, with its own reading.
+    """
+    link, log = tmp_path / "tty", tmp_path / "board.log"
+    process = board_process(link, "--delay-ms", "300", "--delay-after-s", "0.5", log=log)
+    process.next_path()
+    with serial.Serial(str(link), 57600, timeout=5.0) as port:
+
+        def ask(command: bytes) -> bytes:
+            port.write(command + b"\r")
+            return port.read_until(b"\r\n")
+
+        assert ask(b"b") == b" 57600\r\n"  # prompt before --delay-after-s
+        while "# slow on (scheduled)" not in log.read_text():
+            assert ask(b"e") == b"0 0\r\n"
+        os.kill(process.popen.pid, signal.SIGUSR2)
+        while "# slow off (requested)" not in log.read_text():
+            assert ask(b"e") == b"0 0\r\n"
+        os.kill(process.popen.pid, signal.SIGUSR2)
+        while "# slow on (requested)" not in log.read_text():
+            assert ask(b"e") == b"0 0\r\n"
+    assert process.popen.poll() is None
+
+
+def test_reply_delay_is_added_after_the_reading():
+    """The board reads the encoders when the request arrives; the delay is on the way back."""
+    from fishtail_driver.fake_board import FakeBoard
+
+    now = [0.0]
+    board = FakeBoard(BoardConfig(delay_ms=80.0, delay_after_s=1.0), announce=lambda _: None,
+                      clock=lambda: now[0])  # fmt: skip
+    try:
+        assert not board.slow
+        board._scheduled(1.0)
+        assert board.slow
+        now[0] = 2.0
+        board._rx.extend((2.0, byte) for byte in b"e\r")
+        board._receive(2.0)
+        assert board.firmware.encoder_reads[-1][0] == 2.0
+        assert board._tx[-1][0] == pytest.approx(2.08)
+        board.set_slow(False)
+        board._rx.extend((2.01, byte) for byte in b"e\r")
+        board._receive(2.01)
+        # Not before the delayed reply: replies never overtake each other on one line.
+        assert board._tx[-1][0] == pytest.approx(2.08)
+    finally:
+        board.close()
+
