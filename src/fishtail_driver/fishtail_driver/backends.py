@@ -22,6 +22,18 @@ class EncoderSample:
     velocity_rad_s: float
 
 
+@dataclasses.dataclass(frozen=True)
+class StopOutcome:
+    """What became of the stop command sent when the backend closed."""
+
+    #: The motor is known to have received it (the board acknowledged it; the sim always).
+    confirmed: bool
+    #: It left this process (it may still have been lost on the way).
+    sent: bool
+    #: For the log, e.g. "stop acknowledged by the board" or why it could not be sent.
+    detail: str
+
+
 class MotorBackend(Protocol):
     """What the driver node needs of a motor."""
 
@@ -41,8 +53,11 @@ class MotorBackend(Protocol):
     def stop(self) -> None:
         """Command the motor to stop (speed 0). Must not raise."""
 
-    def close(self) -> None:
-        """Release the motor's resources. Must not raise."""
+    def close(self) -> StopOutcome:
+        """Stop the motor and release its resources; says whether the stop got through.
+
+        Must not raise; safe to call twice.
+        """
 
     def status(self) -> tuple[int, str, dict[str, str]]:
         """Diagnostic level (0 OK, 1 WARN, 2 ERROR), message and key values."""
@@ -85,8 +100,10 @@ class SimBackend:
         """Command zero speed."""
         self.set_speed(0.0)
 
-    def close(self) -> None:
-        """Nothing to release."""
+    def close(self) -> StopOutcome:
+        """Stop the model; nothing to release."""
+        self.set_speed(0.0)
+        return StopOutcome(confirmed=True, sent=True, detail="simulated motor stopped")
 
     def status(self) -> tuple[int, str, dict[str, str]]:
         """Always OK: the model cannot fail."""

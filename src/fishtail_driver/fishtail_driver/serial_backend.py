@@ -24,7 +24,8 @@ The thread:
   vanishing or pointing to another device (unplug/replug), read/write errors, a read timeout, a
   partial, garbled, binary or oversized reply, ``Invalid Command``, replies out of step, and board
   resets (counts back to 0, or a step larger than the motor can make). A transient fault costs one
-  poll and a resynchronisation (input drained until the line is quiet); the link is declared lost
+  poll and a resynchronisation (:meth:`SerialBackend._fence`: a ``b`` request whose reply marks
+  the line as back in step, every line before it discarded and counted); the link is declared lost
   (ERROR, port closed, reconnect with backoff) on an I/O error, a vanished path, or when no valid
   reply arrived for ``stale_timeout_s``;
 - keeps the published angle continuous: after a board reset (seen mid-run or right after a
@@ -37,7 +38,8 @@ The thread:
   reading that disagrees with the speed estimate is held back for one poll: if the next reading
   continues from it, the step was real (motion or reset); if the next one continues from the
   previous reading, the held one was a corrupt value that happened to parse (a flipped digit)
-  and is dropped as an outlier.
+  and is dropped as an outlier;
+- dates each reading at the moment its request reached the board (see :meth:`SerialBackend._poll`).
 
 :meth:`SerialBackend.read` returns each new encoder sample once and None when no new sample
 arrived since the previous call (and while disconnected): the driver then skips that publish
@@ -61,7 +63,7 @@ from collections.abc import Callable
 
 import serial
 
-from fishtail_driver.backends import EncoderSample
+from fishtail_driver.backends import EncoderSample, StopOutcome
 from fishtail_driver.protocol import (
     CHANNELS,
     MAX_REPLY_BYTES,
@@ -311,18 +313,23 @@ class SerialBackend:
             self._read_seq = self._latest_seq
             return self._latest
 
-    def close(self) -> None:
-        """Send ``m 0 0`` (if connected), stop the thread and close the port. Never raises."""
+    def close(self) -> StopOutcome:
+        """Send ``m 0 0`` (if connected), stop the thread and close the port; never raises.
+
+        Returns whether the board acknowledged the stop, or why it could not be sent.
+        """
         thread = self._thread
         with self._lock:
             self._target_speed = 0.0
             self._target_ticks = 0
+            state = self._state
         self._closing.set()
         self._wake.set()
         if thread is None:
-            return
+            return StopOutcome(False, False, "m 0 0 not sent: the backend was never started")
         thread.join(timeout=3.0 * self.config.read_timeout_s + 1.0)
-        if thread.is_alive():
+        alive = thread.is_alive()
+        if alive:
             with self._lock:
                 self.counters["close_timeouts"] += 1
             port = self._port
@@ -331,6 +338,14 @@ class SerialBackend:
                     port.cancel_read()
                 except Exception:  # best effort
                     pass
+        with self._lock:
+            final_stop = self._final_stop
+        if final_stop == "acknowledged":
+            return StopOutcome(True, True, "stop acknowledged by the board (m 0 0)")
+        if final_stop == "sent, not acknowledged":
+            return StopOutcome(False, True, f"m 0 0 sent to {self.config.port}, not acknowledged")
+        why = "the serial thread did not finish in time" if alive else state
+        return StopOutcome(False, False, f"m 0 0 not sent: {why}")
 
     def status(self) -> tuple[int, str, dict[str, str]]:
         """(level, message, values): ERROR while not connected, WARN after recent faults."""
@@ -581,7 +596,7 @@ class SerialBackend:
                 continue
             verified += 1
             if verified >= 2:
-                return pair, 0.5 * (sent + self._clock())
+                return pair, sent + self._request_s(encode_read_encoders())
 
     def _serve(self) -> None:
         config = self.config
@@ -664,8 +679,9 @@ class SerialBackend:
                     self._final_stop = "acknowledged"
                     self._acked_ticks = 0
                 return
-        with self._lock:
-            self._final_stop = "sent, not acknowledged"
+            # Written (a failed write raises instead), so the board may well have run it.
+            with self._lock:
+                self._final_stop = "sent, not acknowledged"
 
     def _send_motor(self, ticks: int, resend: bool) -> None:
         left, right = channel_ticks(self.config.channel, ticks)
@@ -678,13 +694,25 @@ class SerialBackend:
             self._acked_at = self._clock()
             self.counters["motor_resends" if resend else "motor_commands"] += 1
 
+    def _request_s(self, payload: bytes) -> float:
+        """Line time of a request: from its write until its CR reaches the board [s]."""
+        return len(payload) * self._byte_s
+
     def _poll(self) -> bool:
+        """One ``e`` exchange; the reading is dated when the request reached the board.
+
+        The firmware reads the encoders as soon as the request's CR arrives and writes the reply
+        at once; what delays a reply is mostly on the way back (a USB adapter's latency timer
+        holds received bytes up to 16 ms, the reply's own line time, this process being
+        scheduled), so the middle of the exchange would date a reading from a slow board up to
+        half the round trip late. The reading is within [request arrival, reply arrival].
+        """
+        payload = encode_read_encoders()
         sent = self._clock()
-        pair = self._transact(encode_read_encoders(), parse_encoders)
+        pair = self._transact(payload, parse_encoders)
         if pair is _FAILED:
             return False
-        received = self._clock()
-        self._accept(pair, 0.5 * (sent + received), after_connect=False)
+        self._accept(pair, sent + self._request_s(payload), after_connect=False)
         return True
 
     # --- encoder samples -------------------------------------------------------------------------
@@ -891,6 +919,70 @@ class SerialBackend:
             raise _LinkLostError(f"{self.config.port} failed: {error}") from None
         return noise
 
+    def _drop_input(self) -> int:
+        """Discard all buffered input; returns how many reply lines (whole or begun) it held."""
+        port = self._port
+        if port is None:
+            raise _LinkLostError("port closed")
+        try:
+            waiting = port.in_waiting
+            data = port.read(waiting) if waiting else b""
+        except (serial.SerialException, OSError) as error:
+            raise _LinkLostError(f"{self.config.port} failed: {error}") from None
+        lines = len(self._lines) + len(self._framer.feed(data)) + bool(self._framer.pending)
+        self._framer.clear()
+        self._lines.clear()
+        return lines
+
+    def _is_fence_reply(self, line: bytes | OversizedLine) -> bool:
+        if isinstance(line, OversizedLine):
+            return False
+        try:
+            parse_baud(line)
+            return True
+        except ReplyError as error:
+            # A firmware without 'b' (handshake answered Invalid Command) answers the fence so.
+            return error.kind == "invalid_command" and self._board_baud is None
+
+    def _fence(self) -> None:
+        """Get back in step after a failed exchange: no late reply may pass for a later one's.
+
+        The protocol has no request tags, and a board may answer after the read timeout: sent at
+        once, the next request would take that late reply for its own (an old reading with a
+        current stamp). So: drop the input, send ``b`` and discard every line until a reply to
+        ``b`` arrives. The board answers in order, so by then every earlier request has been
+        answered or lost, and the next reply answers the next request. A ``b`` reply never
+        passes for an encoder reading or an ``OK``, so a fence answered late (and taken for a
+        later fence) does no harm either. Discarded lines are counted (``discarded_replies``).
+        Fence replies do not count as valid replies: a board that answers only late is declared
+        lost after ``stale_timeout_s``. When closing, one attempt only.
+        """
+        config = self.config
+        with self._lock:
+            self.counters["resyncs"] += 1
+        while True:
+            discarded = self._drop_input()
+            self._write(encode_get_baud())
+            deadline = self._clock() + config.read_timeout_s
+            in_step = False
+            while not in_step:
+                try:
+                    line = self._read_line(deadline)
+                except _ReadTimeoutError:
+                    break
+                in_step = self._is_fence_reply(line)
+                discarded += not in_step
+            with self._lock:
+                self.counters["discarded_replies"] += discarded
+                silent_s = self._clock() - self._last_good_s
+            if in_step or self._closing.is_set():
+                return
+            if silent_s > config.stale_timeout_s:
+                raise _LinkLostError(
+                    f"no valid reply for {silent_s:.1f} s (replies late or out of step: "
+                    f"{self.counters['discarded_replies']} discarded)"
+                )
+
     def _transact(self, payload: bytes, parse: Callable[[bytes], object]) -> object:
         """Send one command and parse its reply; a transient fault is counted: ``_FAILED``."""
         self._write(payload)
@@ -908,19 +1000,19 @@ class SerialBackend:
                 self._fault(
                     "timeouts", f"no reply to {command!r} within {self.config.read_timeout_s:g} s"
                 )
-            self._resync(quiet=True)
+            self._fence()
             return _FAILED
         if isinstance(line, OversizedLine):
             self._fault(
                 "oversized", f"a {line.length}-byte line (starting {line.head!r}) was discarded"
             )
-            self._resync(quiet=True)
+            self._fence()
             return _FAILED
         try:
             value = parse(line)
         except ReplyError as error:
             self._fault(error.kind, error.reason)
-            self._resync(quiet=True)
+            self._fence()
             return _FAILED
         with self._lock:
             self._last_good_s = self._clock()

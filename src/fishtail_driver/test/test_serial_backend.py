@@ -540,3 +540,76 @@ def test_plausible_corrupt_reading_is_corrected_not_taken_for_a_reset():
     assert backend.counters["outliers"] == 1
     published = backend._latest.angle_rad / backend.scale.angle_from_counts(1)
     assert round(published) == count
+
+
+# --- late replies, reading times, the final stop ------------------------------------------------
+
+
+def test_late_replies_are_discarded_never_taken_for_later_ones(
+    fake_board, serial_backend, sampler, wait_until
+):
+    """A board that turns slow (300 ms under a 100 ms timeout): no sample from a late reply.
+
+    Every sample must carry the count the board read at the sample's time (checked on the
+    board's own record of its readings); late replies are counted as discarded; the link is
+    declared lost (no timely reply) and comes back when the board is fast again.
+    """
+    board = fake_board(delay_ms=300.0)
+    board.board.set_slow(False)
+    backend = serial_backend(board.link, read_timeout_s=0.1, stale_timeout_s=1.0,
+                             **FAST_RECONNECT)  # fmt: skip
+    samples = sampler(backend)
+    wait_until(lambda: level(backend) == 0, 5.0, "connected")
+    backend.set_speed(4.0)
+    wait_until(lambda: samples.angle() > 1.0, 5.0, "motion")
+    board.board.set_slow(True)
+    wait_until(lambda: counter(backend, "discarded_replies") >= 2, 5.0, "late replies discarded")
+    wait_until(lambda: counter(backend, "disconnects") >= 1, 5.0, "the link declared lost")
+    board.board.set_slow(False)
+    held = samples.angle()
+    wait_until(lambda: samples.angle() > held + 1.0, 10.0, "motion once the board is fast again")
+    backend.set_speed(4.0)  # keep the command fresh for the check below
+    samples.stop()
+    read_at = {}
+    for when, left, _ in list(board.board.firmware.encoder_reads):
+        read_at.setdefault(left, []).append(when)
+    count_rad = 2 * math.pi / 2048
+    for sample in samples.samples:
+        times = read_at[round(sample.angle_rad / count_rad)]
+        error = min(abs(when - sample.monotonic_s) for when in times)
+        # A late reply taken for a later request's would be dated >= 0.1 s after its reading.
+        assert error < 0.05, f"a sample dated {error:.3f} s away from the board's reading"
+    assert_no_jump(samples.samples)
+
+
+def test_reading_is_dated_when_the_request_reached_the_board(
+    fake_board, serial_backend, wait_until
+):
+    """Replies 60 ms late: accepted, each dated at its request, not mid-way to the reply."""
+    board = fake_board(delay_ms=60.0)
+    backend = serial_backend(board.link, read_timeout_s=0.1)
+    wait_until(lambda: counter(backend, "polls") >= 10, 10.0, "10 polls")
+    sample = backend.read()
+    reads = [when for when, _, _ in list(board.board.firmware.encoder_reads)]
+    error = min(abs(when - sample.monotonic_s) for when in reads)
+    assert error < 0.02, f"the reading is dated {error * 1e3:.0f} ms away from the board's read"
+    assert counter(backend, "timeouts") == 0 and counter(backend, "discarded_replies") == 0
+
+
+def test_close_reports_whether_the_stop_got_through(
+    fake_board, serial_backend, tmp_path, wait_until
+):
+    """Acknowledged by a board; not sent when there is no board, or when never started."""
+    board = fake_board()
+    backend = serial_backend(board.link)
+    wait_until(lambda: level(backend) == 0, 5.0, "connected")
+    outcome = backend.close()
+    assert outcome.confirmed and outcome.sent and "acknowledged" in outcome.detail
+    assert backend.close() == outcome  # twice: the same answer
+    missing = serial_backend(tmp_path / "no-board")
+    wait_until(lambda: "does not exist" in missing.status()[1], 5.0, "the port missing")
+    outcome = missing.close()
+    assert not outcome.confirmed and not outcome.sent
+    assert "not sent" in outcome.detail and "does not exist" in outcome.detail
+    never = SerialBackend(SerialConfig(port=str(tmp_path / "no-board")))
+    assert not never.close().sent
