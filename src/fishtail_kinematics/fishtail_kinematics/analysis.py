@@ -450,11 +450,17 @@ def read_csv(path: Path) -> Recording:
                     f"{path}: line {line} has {len(row)} fields, the header {len(header)}"
                 )
             try:
-                values.append(float(row[column]))
+                value = float(row[column])
             except ValueError:
                 raise AnalysisError(
                     f"{path}: line {line}, column {name}: not a number: {row[column]!r}"
                 ) from None
+            if not math.isfinite(value):
+                # float() reads "nan" and "inf"; a table of the CLI never holds them.
+                raise AnalysisError(
+                    f"{path}: line {line}, column {name}: not a finite number: {row[column]!r}"
+                )
+            values.append(value)
         data[_FIELD_OF_COLUMN.get(name, name)] = np.asarray(values)
     angle = data["motor_angle"]
     if not np.all(np.isfinite(angle)) or not np.all(np.diff(angle) > 0.0):

@@ -456,6 +456,24 @@ def test_bad_csv(tmp_path, capsys, text, words):
     expect_clean_error(capsys, path, *words)
 
 
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf"])
+def test_csv_with_a_non_finite_value_is_bad_input(tmp_path, capsys, bad):
+    # A table of the CLI with one theta3 replaced: a one-line error naming the line and the
+    # column, status 2 and no figures (not a "disagreement" with figures of a broken table).
+    table = tmp_path / "cycle.csv"
+    assert cli.main(["table", "--samples", "36", "--output", str(table)]) == 0
+    lines = table.read_text().splitlines()
+    header = lines[0].split(",")
+    row = lines[5].split(",")
+    row[header.index("theta3")] = bad
+    lines[5] = ",".join(row)
+    table.write_text("\n".join(lines) + "\n")
+    expect_clean_error(
+        capsys, table, "line 6, column theta3", f"not a finite number: '{bad}'", tmp_path=tmp_path
+    )
+    assert not (tmp_path / "f").exists()
+
+
 def test_unwritable_output_dir(store, tmp_path, capsys):
     bag = write_bag(store, tmp_path / "bag", seconds=0.6)
     blocker = tmp_path / "file"
