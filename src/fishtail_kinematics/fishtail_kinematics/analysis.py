@@ -581,25 +581,17 @@ def beat_table(
 ) -> list[JudgedBeat]:
     """Per-beat statistics and verdicts; a gap longer than ``gap_reset_s`` restarts the beat.
 
-    Same code path as the monitor: :func:`beats_of` (its :class:`BeatTracker`) and :func:`judge`,
-    weighted by the carrier angle when it is given, as the monitor does.
+    Same code path as the monitor: :func:`beats_of` (its :class:`BeatTracker`, gap detection
+    and reset) and :func:`judge`, weighted by the carrier angle when it is given, as the monitor
+    does. A beat with a shorter gap is NOT_JUDGED.
     """
     stamp_s = np.asarray(stamp_s, float)
     theta3 = np.asarray(theta3, float)
-    if stamp_s.size == 0:
-        return []
-    carrier = np.asarray(stamp_s if carrier_rad is None else carrier_rad, float)
-    breaks = np.flatnonzero(np.diff(stamp_s) > gap_reset_s) + 1
+    carrier = None if carrier_rad is None else np.asarray(carrier_rad, float)
     judged = []
-    pieces = zip(
-        np.split(stamp_s, breaks), np.split(theta3, breaks), np.split(carrier, breaks), strict=True
-    )
-    for times, values, carriers in pieces:
-        weights = None if carrier_rad is None else carriers
-        for beat in beats_of(times, values, hysteresis_rad, weights):
-            beat = dataclasses.replace(beat, index=len(judged))
-            verdict, reason = judge(beat, tolerances)
-            judged.append(JudgedBeat(beat, verdict, reason))
+    for beat in beats_of(stamp_s, theta3, hysteresis_rad, carrier, gap_reset_s):
+        verdict, reason = judge(beat, tolerances)
+        judged.append(JudgedBeat(beat, verdict, reason))
     return judged
 
 
@@ -721,12 +713,10 @@ def write_figures(
     return written
 
 
-# ============================================================================================
-# HOOK: swimming figures (issue 5, item 4). Module fishtail_kinematics.swimming (another
-# helper's) provides swimming_figures(time_s, tip_y, tip_y_velocity, fin_angle, parameters).
-# When it is importable, its figures are computed here and printed by format_report(); when it
-# is not, swimming_hook() returns None and nothing is printed.
-# ============================================================================================
+# --------------------------------------------------------------------------------------------
+# Swimming figures: fishtail_kinematics.swimming.swimming_figures(time_s, tip_y, tip_y_velocity,
+# fin_angle, parameters), printed by format_report(); without that module (a trimmed install)
+# swimming_hook() returns None and nothing is printed.
 
 #: Swimming parameters the analysis passes when neither --config nor a flag sets them: the
 #: monitor node's parameter defaults.
@@ -855,7 +845,7 @@ def beat_table_lines(beats: Sequence[JudgedBeat], origin_s: float = 0.0) -> list
         return ["symmetry: no complete beat (theta3 must cross zero upwards twice)"]
     lines = [
         f"{'beat':>4} {'start s':>8} {'period s':>8} {'freq Hz':>7} {'+peak°':>7} {'-peak°':>7} "
-        f"{'mean°':>7} {'+share':>6}  verdict  reason"
+        f"{'mean°':>7} {'+share':>6}  verdict     reason"
     ]
     for judged in beats:
         b = judged.beat
@@ -863,7 +853,7 @@ def beat_table_lines(beats: Sequence[JudgedBeat], origin_s: float = 0.0) -> list
             f"{b.index:>4} {b.start_s - origin_s:>8.3f} {b.period_s:>8.4f} {b.frequency_hz:>7.4f} "
             f"{math.degrees(b.positive_peak_rad):>7.3f} {math.degrees(b.negative_peak_rad):>7.3f} "
             f"{math.degrees(b.mean_angle_rad):>7.3f} {b.positive_time_share:>6.4f}  "
-            f"{judged.verdict.name:<7}  {judged.reason}"
+            f"{judged.verdict.name:<10}  {judged.reason}"
         )
     counts = Counter(judged.verdict for judged in beats)
     lines.append(

@@ -15,6 +15,12 @@ within a revolution (a board's PID, a noisy load) does not look like a skewed li
 verdict depends on the geometry alone. At constant speed both are the same; without the carrier
 angle the integrals are over time. Period and frequency always come from time.
 
+Some beats are not judged (:attr:`Verdict.NOT_JUDGED`), because a verdict on them would be a
+verdict on missing data: a beat that contains a gap in the input (the caller says which
+intervals are gaps, see :mod:`fishtail_kinematics.stream_timing`; peaks and integrals are
+interpolated across it), and a beat whose mean and shares are undefined because its carrier
+angle did not advance.
+
 >>> import math
 >>> tracker = BeatTracker()
 >>> def theta3(t):
@@ -30,6 +36,8 @@ import dataclasses
 import enum
 import math
 
+from fishtail_kinematics.stream_timing import StreamTiming
+
 
 class Verdict(enum.IntEnum):
     """Per-beat verdict; values as in fishtail_msgs/SymmetryReport and DiagnosticStatus."""
@@ -37,6 +45,7 @@ class Verdict(enum.IntEnum):
     OK = 0
     WARN = 1
     ERROR = 2
+    NOT_JUDGED = 3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,6 +83,9 @@ class BeatStatistics:
     mean_angle_rad: float
     positive_time_share: float
     negative_time_share: float
+    #: Longest interval between samples inside the beat that the caller marked as a gap; 0 if
+    #: none.
+    gap_s: float = 0.0
 
     @property
     def period_s(self) -> float:
@@ -101,8 +113,28 @@ class BeatStatistics:
         return 0.5 * (self.positive_time_share - self.negative_time_share)
 
 
+def not_judged_reason(beat: BeatStatistics) -> str | None:
+    """Why ``beat`` cannot be judged, or None if it can."""
+    reasons = []
+    if not (math.isfinite(beat.mean_angle_rad) and math.isfinite(beat.positive_time_share)):
+        reasons.append(
+            "the carrier angle did not advance over the beat, so its mean and shares are "
+            "undefined (reported as 0)"
+        )
+    if beat.gap_s > 0.0:
+        reasons.append(
+            f"the input has a gap of {beat.gap_s * 1e3:.0f} ms inside the beat (samples lost "
+            f"or late), peaks {math.degrees(beat.positive_peak_rad):+.3f}/"
+            f"{math.degrees(beat.negative_peak_rad):+.3f} deg are from what arrived"
+        )
+    return "not judged: " + "; ".join(reasons) if reasons else None
+
+
 def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict, str]:
-    """Verdict and a one-line reason that quotes the measured bias."""
+    """Verdict and a one-line reason that quotes the measured bias (NOT_JUDGED: why not)."""
+    reason = not_judged_reason(beat)
+    if reason is not None:
+        return Verdict.NOT_JUDGED, reason
     degrees = math.degrees
     measures = (
         ("time share", beat.time_share_imbalance, tolerances.time_share_warn,
@@ -119,7 +151,8 @@ def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict
     verdict = Verdict.OK
     failures = []
     for name, value, warn, error, text, limit_text in measures:
-        # Written as "not <=" so that an undefined (NaN) figure is an error, never a pass.
+        # Written as "not <=" so that a NaN figure that got past not_judged_reason() (a peak)
+        # is an error, never a pass.
         if not abs(value) <= error:
             verdict = Verdict.ERROR
             failures.append(f"{name} off: {text}, limit {limit_text(error)}")
@@ -139,7 +172,9 @@ class BeatTracker:
 
     Per sample it does a handful of float operations and allocates nothing unless a beat ends.
     Samples must come in increasing time; an older or equal time, or a non-finite value, is
-    ignored and counted in :attr:`rejected_samples` (the caller reports it).
+    ignored and counted in :attr:`rejected_samples` (the caller reports it). The caller marks a
+    sample that follows a gap in the input (``after_gap``); the beats the gap falls in carry its
+    length in :attr:`BeatStatistics.gap_s` and are not judged.
     """
 
     def __init__(self, hysteresis_rad: float = 0.01) -> None:
@@ -163,6 +198,7 @@ class BeatTracker:
         self._minimum = math.inf
         self._integral = 0.0
         self._positive_time = 0.0
+        self._gap = 0.0
 
     def reset(self) -> None:
         """Forget the beat in progress (e.g. after a gap in the data)."""
@@ -171,12 +207,17 @@ class BeatTracker:
         self._in_beat = False
 
     def add(
-        self, time_s: float, theta3: float, carrier_rad: float | None = None
+        self,
+        time_s: float,
+        theta3: float,
+        carrier_rad: float | None = None,
+        after_gap: bool = False,
     ) -> BeatStatistics | None:
         """Add one sample; return the beat it completes, if any.
 
         ``carrier_rad`` (the unwrapped carrier angle of the sample) makes the shares and the mean
-        carrier-angle weighted; give it with every sample or with none.
+        carrier-angle weighted; give it with every sample or with none. ``after_gap``: the
+        interval since the previous sample is a gap in the input.
         """
         coordinate = time_s if carrier_rad is None else carrier_rad
         if not (math.isfinite(time_s) and math.isfinite(theta3) and math.isfinite(coordinate)):
@@ -196,6 +237,11 @@ class BeatTracker:
         self._last_time, self._last_value = time_s, theta3
         self._last_coordinate = coordinate
         completed = None
+        gap = time_s - previous_time if after_gap else 0.0
+        if gap > self._gap:
+            # Before a crossing in this interval: the beat it ends and the one it starts both
+            # contain part of the gap.
+            self._gap = gap
         if self._armed and previous < 0.0 <= theta3:
             fraction = -previous / (theta3 - previous)
             crossing = previous_time + (time_s - previous_time) * fraction
@@ -207,6 +253,7 @@ class BeatTracker:
             self._in_beat = True
             self._armed = False
             self._reset_beat(crossing, crossing_coordinate)
+            self._gap = gap
             self._accumulate(crossing_coordinate, 0.0, coordinate, theta3)
         elif self._in_beat:
             self._accumulate(previous_coordinate, previous, coordinate, theta3)
@@ -248,20 +295,32 @@ class BeatTracker:
             mean_angle_rad=self._integral / measure,
             positive_time_share=positive_share,
             negative_time_share=1.0 - positive_share,
+            gap_s=self._gap,
         )
         self.beats_completed += 1
         return beat
 
 
 def beats_of(
-    time_s, theta3, hysteresis_rad: float = 0.01, carrier_rad=None
+    time_s, theta3, hysteresis_rad: float = 0.01, carrier_rad=None, gap_reset_s: float = math.inf
 ) -> list[BeatStatistics]:
-    """All complete beats of a recorded series (the same code path as the live monitor)."""
+    """All complete beats of a recorded series (the same code path as the live monitor).
+
+    As in the monitor, gaps are found by :class:`~fishtail_kinematics.stream_timing.StreamTiming`
+    on the stamps, and an interval longer than ``gap_reset_s`` forgets the beat in progress.
+    """
     tracker = BeatTracker(hysteresis_rad)
+    timing = StreamTiming()
     beats = []
     carriers = [None] * len(time_s) if carrier_rad is None else carrier_rad
+    previous = None
     for t, value, carrier in zip(time_s, theta3, carriers, strict=True):
-        beat = tracker.add(float(t), float(value), None if carrier is None else float(carrier))
+        t = float(t)
+        if previous is not None and t - previous > gap_reset_s:
+            tracker.reset()
+        previous = t
+        gap = timing.observe(t)
+        beat = tracker.add(t, float(value), None if carrier is None else float(carrier), gap)
         if beat is not None:
             beats.append(beat)
     return beats

@@ -151,10 +151,93 @@ def test_carrier_weighting_keeps_speed_ripple_out_of_the_verdict():
         assert beat.period_s == pytest.approx(2 * math.pi / 4.0, rel=0.02)
 
 
-def test_a_carrier_that_does_not_advance_is_an_error_not_a_pass():
+def test_a_carrier_that_does_not_advance_is_not_judged_not_a_pass():
     tracker = BeatTracker()
     time_s, theta3 = biased_sine(0.4, 0.0, 1.0, 200.0, 3.5)
     beats = [tracker.add(float(t), float(v), 0.0) for t, v in zip(time_s, theta3, strict=True)]
     completed = [b for b in beats if b is not None]
     assert completed
-    assert all(judge(beat, SymmetryTolerances())[0] == Verdict.ERROR for beat in completed)
+    for beat in completed:
+        verdict, message = judge(beat, SymmetryTolerances())
+        # Not a verdict on the linkage: the figures it would rest on are undefined.
+        assert verdict == Verdict.NOT_JUDGED
+        assert message.startswith("not judged: the carrier angle did not advance"), message
+
+
+def report_geometry_at_200_hz(hole_s: tuple[float, float] | None):
+    """theta3 of the report geometry at 4 rad/s at 200 Hz, without the samples inside hole_s."""
+    tail = OscillatoryTail(OscillatoryGeometry())
+    time_s = np.arange(0.0, 8.0, 0.005)
+    if hole_s is not None:
+        time_s = time_s[(time_s <= hole_s[0]) | (time_s >= hole_s[1])]
+    carrier = 4.0 * time_s
+    return time_s, tail.solve(carrier, 4.0).theta3, carrier
+
+
+def test_a_beat_with_a_gap_is_not_judged():
+    # A hole of about 315 ms (at 4 rad/s, 1.26 rad of carrier) around the + peak of a beat of
+    # the symmetric linkage. Interpolated across, the peak is 21.8 deg instead of 26.6: judged,
+    # that beat would be a false "asymmetric swing" (ERROR).
+    time_s, theta3, carrier = report_geometry_at_200_hz(None)
+    beats = beats_of(time_s, theta3, carrier_rad=carrier)
+    peak_time = beats[1].start_s + 0.25 * beats[1].period_s
+    hole = (peak_time - 0.16, peak_time + 0.155)
+    time_s, theta3, carrier = report_geometry_at_200_hz(hole)
+    gap = float(np.max(np.diff(time_s)))
+    assert gap == pytest.approx(0.315, abs=0.006)
+
+    tolerances = SymmetryTolerances()
+    tracker = BeatTracker()  # premise: without the gap mark, the verdict is a false alarm
+    unmarked = [b for b in map(tracker.add, time_s, theta3, carrier) if b is not None]
+    assert judge(unmarked[1], tolerances)[0] != Verdict.OK
+
+    beats = beats_of(time_s, theta3, carrier_rad=carrier)
+    assert len(beats) == len(unmarked)
+    verdict, message = judge(beats[1], tolerances)
+    assert verdict == Verdict.NOT_JUDGED
+    assert beats[1].gap_s == pytest.approx(gap)
+    assert message.startswith(f"not judged: the input has a gap of {gap * 1e3:.0f} ms"), message
+    for beat in beats[:1] + beats[2:]:
+        assert beat.gap_s == 0.0
+        assert judge(beat, tolerances)[0] == Verdict.OK
+
+
+def test_a_gap_across_a_crossing_belongs_to_both_beats():
+    tracker = BeatTracker()
+    time_s, theta3 = biased_sine(0.4, 0.0, 1.0, 200.0, 4.5)
+    marked = []
+    for k, (t, value) in enumerate(zip(time_s, theta3, strict=True)):
+        if 390 < k < 410:  # the upward crossing at t = 2 s lies in the hole
+            continue
+        beat = tracker.add(float(t), float(value), after_gap=(k == 410))
+        if beat is not None:
+            marked.append(beat)
+    # Beats [1, 2], [2, 3], [3, 4] s (the first upward crossing after a dip is at 1 s).
+    assert [b.gap_s > 0.0 for b in marked] == [True, True, False]
+    assert marked[0].gap_s == marked[1].gap_s == pytest.approx(0.1)
+    assert marked[0].end_s == pytest.approx(2.0, abs=1e-3)
+
+
+def test_jitter_is_not_a_gap():
+    # Stamps up to 15 ms late on a 5 ms grid (under the 20 ms floor): every beat is judged.
+    jitter = np.random.default_rng(5)
+    time_s = np.arange(0.0, 6.0, 0.005)
+    late = jitter.random(time_s.size) < 0.05
+    time_s = np.where(late, time_s + jitter.uniform(0.0, 0.004, time_s.size), time_s)
+    keep = np.concatenate(([True], np.diff(time_s) > 0.0))
+    time_s = time_s[keep]
+    drop = jitter.random(time_s.size) < 0.02  # and a few lost: 10-15 ms intervals
+    time_s = time_s[~drop]
+    theta3 = 0.4 * np.sin(2 * math.pi * time_s)
+    beats = beats_of(time_s, theta3)
+    assert len(beats) == 4  # [1, 2] ... [4, 5] s
+    assert all(beat.gap_s == 0.0 for beat in beats)
+
+
+def test_a_long_gap_restarts_the_beat():
+    time_s, theta3 = biased_sine(0.4, 0.0, 1.0, 200.0, 6.0)
+    keep = (time_s < 2.7) | (time_s > 3.3)
+    beats = beats_of(time_s[keep], theta3[keep], gap_reset_s=0.5)
+    # [2, 3] held the hole and is forgotten; after it theta3 must dip again before the crossing
+    # at 4 s starts a beat.
+    assert [(round(b.start_s, 6), round(b.end_s, 6)) for b in beats] == [(1.0, 2.0), (4.0, 5.0)]
