@@ -9,10 +9,16 @@ Topics (relative names):
   pub ``tail/markers``       visualization_msgs/MarkerArray for RViz (config/fishtail.rviz): ring,
                              planet, Cardan point, links, joints, tip trail; at
                              ``markers_rate_hz`` (0 = off), built on a timer from the latest state
-  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray
+  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray: STALE without input; WARN when
+                             samples were dropped (counts per reason in ``dropped_<reason>``) or
+                             the input has gaps or a low rate (``input_rate_hz``,
+                             ``longest_gap_ms``, ...); else OK
 
-Geometry parameters are validated by the engine when set: an infeasible linkage is refused with
-the engine's reason and the previous geometry stays in force.
+Implausible ``motor/joint_state`` samples are dropped before the engine sees them, by the rules
+of :mod:`fishtail_kinematics.input_guard`; gaps and rate are judged by
+:mod:`fishtail_kinematics.stream_timing`. Geometry parameters are validated by the engine when
+set: an infeasible linkage is refused with the engine's reason and the previous geometry stays in
+force; a set that changes nothing is not news and is not logged.
 """
 
 from __future__ import annotations
@@ -28,12 +34,22 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
 from fishtail_kinematics.errors import FishtailKinematicsError
+from fishtail_kinematics.input_guard import (
+    GUARD_PARAMETERS,
+    GUARD_REASONS,
+    REASON_TEXT,
+    CarrierGuard,
+    DropCounts,
+    input_status,
+)
 from fishtail_kinematics.marker_publisher import TailMarkerPublisher
 from fishtail_kinematics.mechanisms import UndulatoryTail, make_tail
 from fishtail_kinematics.parameters import (
     MECHANISM_PARAMETER,
-    PARAMETERS_BY_NAME,
+    changes_text,
+    geometry_changes,
     geometry_from_parameters,
+    geometry_parameters_in,
 )
 from fishtail_kinematics.ros_common import (
     LEVEL_STALE,
@@ -43,8 +59,14 @@ from fishtail_kinematics.ros_common import (
     geometry_parameter_values,
     run_node,
 )
+from fishtail_kinematics.stream_timing import StreamTiming
 from fishtail_msgs.msg import TailState
 
+INPUT_TOPIC = "motor/joint_state"
+DIAGNOSTICS_PERIOD_S = 1.0
+#: Drop reasons of the node itself, besides the guard's.
+NO_CARRIER_JOINT = "no_carrier_joint"
+ENGINE_REFUSED = "engine_refused"
 OSCILLATORY_JOINTS = ["theta1", "theta2", "theta3"]
 UNDULATORY_JOINTS = [*OSCILLATORY_JOINTS, "theta4", "theta5"]
 _NAN = float("nan")
@@ -84,15 +106,26 @@ class KinematicsNode(Node):
                 integer_range=[IntegerRange(from_value=0, to_value=10000, step=1)],
             ),
         )  # fmt: skip
+        for name, (default, text, low, high) in GUARD_PARAMETERS.items():
+            self.declare_parameter(name, default, float_descriptor(text, low, high))
         self.tail = make_tail(geometry_from_parameters(geometry_parameter_values(self)))
         self.frame_id = self.get_parameter("frame_id").value
         self.motor_joint_name = self.get_parameter("motor_joint_name").value
         self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
-        self._previous_input: tuple[float, float] | None = None
+        self._previous_input: tuple[int, float] | None = None  # (stamp ns, angle) accepted
         self.received = 0
-        self.rejected = 0
-        self.rejected_since_report = 0
-        self.last_reason = ""
+        self.guard = CarrierGuard()
+        self.guard.apply_parameters(
+            {
+                name: self.get_parameter(name).value
+                for name in (*GUARD_PARAMETERS, "stale_timeout_sec")
+            }
+        )
+        self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT, ENGINE_REFUSED))
+        self._drop_log = {
+            reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
+        }
+        self.timing = StreamTiming()
         self.last_input_ns: int | None = None
 
         self.joint_states = JointState()
@@ -117,7 +150,7 @@ class KinematicsNode(Node):
             self.get_parameter("markers_rate_hz").value,
             self.get_parameter("markers_trail_length").value,
         )  # fmt: skip
-        self.create_timer(1.0, self._on_diagnostics)
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info(f"kinematics up: {self._geometry_text()}")
 
@@ -145,27 +178,25 @@ class KinematicsNode(Node):
 
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
-        geometry_names = {MECHANISM_PARAMETER, *PARAMETERS_BY_NAME}
-        if not geometry_names & changed.keys():
-            if "motor_joint_name" in changed:
-                self.motor_joint_name = changed["motor_joint_name"]
-                self._joint_index_cache = ((), None)
-            self._apply_marker_parameters(changed)
-            return SetParametersResult(successful=True)
-        values = {**geometry_parameter_values(self), **changed}
-        try:
-            tail = make_tail(geometry_from_parameters(values))
-        except FishtailKinematicsError as error:
-            self.get_logger().warning(f"geometry change refused: {error}")
-            return SetParametersResult(successful=False, reason=str(error))
-        self.tail = tail
-        self._configure_messages()
-        self.markers.reset(tail.geometry)
-        self.get_logger().info(f"geometry changed: {values}")
+        current = geometry_parameter_values(self)
+        # `ros2 param load` sets every parameter of the file: only real changes rebuild and log.
+        geometry = geometry_changes(current, changed)
+        if geometry:
+            values = {**current, **geometry_parameters_in(changed)}
+            try:
+                tail = make_tail(geometry_from_parameters(values))
+            except FishtailKinematicsError as error:
+                self.get_logger().warning(f"geometry change refused: {error}")
+                return SetParametersResult(successful=False, reason=str(error))
+            self.tail = tail
+            self._configure_messages()
+            self.markers.reset(tail.geometry)
+            self.get_logger().info(f"geometry changed: {changes_text(geometry)}")
         if "motor_joint_name" in changed:
             self.motor_joint_name = changed["motor_joint_name"]
             self._joint_index_cache = ((), None)
         self._apply_marker_parameters(changed)
+        self.guard.apply_parameters(changed)
         return SetParametersResult(successful=True)
 
     def _apply_marker_parameters(self, changed: dict) -> None:
@@ -182,38 +213,43 @@ class KinematicsNode(Node):
             self._joint_index_cache = (key, index)
         return index
 
-    def _reject(self, reason: str) -> None:
-        self.rejected += 1
-        self.rejected_since_report += 1
-        self.last_reason = reason
-        self.get_logger().warning(reason, throttle_duration_sec=2.0)
+    def _reject(self, reason: str, text: str) -> None:
+        self.drops.count(reason)
+        self.get_logger().warning(text, throttle_duration_sec=2.0)
 
     def _on_motor_state(self, message: JointState) -> None:
         self.received += 1
-        self.last_input_ns = self.get_clock().now().nanoseconds
+        now_ns = self.get_clock().now().nanoseconds
+        self.last_input_ns = now_ns
         index = self._joint_index(message.name)
         if index is None or index >= len(message.position):
-            self._reject(f"motor/joint_state has no position for joint {self.motor_joint_name!r}")
+            self._reject(
+                NO_CARRIER_JOINT,
+                f"{INPUT_TOPIC} has no position for joint {self.motor_joint_name!r}",
+            )
             return
         angle = message.position[index]
         stamp = message.header.stamp
-        time_s = stamp.sec + stamp.nanosec * 1e-9
+        stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+        previous = self._previous_input
         if index < len(message.velocity):
             velocity = message.velocity[index]
-        elif self._previous_input is not None and time_s > self._previous_input[0]:
-            velocity = (angle - self._previous_input[1]) / (time_s - self._previous_input[0])
+        elif previous is not None and stamp_ns > previous[0]:
+            velocity = (angle - previous[1]) / ((stamp_ns - previous[0]) * 1e-9)
         else:
             velocity = 0.0
-        self._previous_input = (time_s, angle)
-        if not (math.isfinite(angle) and math.isfinite(velocity)):
-            self._reject(f"non-finite carrier angle {angle!r} or velocity {velocity!r} dropped")
+        reason = self.guard.check(stamp_ns, angle, velocity, now_ns)
+        if reason is not None:
+            self._reject(reason, self._drop_log[reason])
             return
+        self._previous_input = (stamp_ns, angle)
+        self.timing.observe(stamp_ns * 1e-9)
         try:
             state = self.tail.solve(float(angle), float(velocity))
         except FishtailKinematicsError as error:
-            # Cannot happen for a validated geometry and finite input; if it does, one sample is
-            # dropped and reported rather than the node dying.
-            self._reject(f"engine refused carrier angle {angle!r}: {error}")
+            # Cannot happen for a validated geometry and plausible input; if it does, one sample
+            # is dropped and reported rather than the node dying.
+            self._reject(ENGINE_REFUSED, f"engine refused carrier angle {angle!r}: {error}")
             return
         self.publish_state(state, stamp)
         self.markers.latest = (state, stamp)
@@ -267,14 +303,18 @@ class KinematicsNode(Node):
     def _on_diagnostics(self) -> None:
         now_ns = self.get_clock().now().nanoseconds
         stale_after = self.get_parameter("stale_timeout_sec").value
+        level, text, input_values = input_status(
+            INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
+        )
         if self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after:
-            level, text = LEVEL_STALE, "no motor/joint_state received recently"
-        elif self.rejected_since_report:
-            level, text = 1, f"{self.rejected_since_report} inputs dropped: {self.last_reason}"
-        else:
-            level, text = 0, self._geometry_text()
-        self.rejected_since_report = 0
-        values = {"received": str(self.received), "rejected": str(self.rejected)}
+            level, text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
+        elif level == 0:
+            text = f"{self._geometry_text()}; {text}"
+        values = {
+            "received": str(self.received),
+            "rejected": str(self.drops.dropped),
+            **input_values,
+        }
         self.diagnostics_publisher.publish(
             diagnostic_array(self, "kinematics", level, text, values)
         )

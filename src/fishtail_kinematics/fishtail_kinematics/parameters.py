@@ -156,3 +156,27 @@ def geometry_parameters_in(values: Mapping[str, object]) -> dict[str, object]:
     """The subset of ``values`` that describes geometry (mechanism and lengths)."""
     keep = {MECHANISM_PARAMETER, *PARAMETERS_BY_NAME}
     return {name: value for name, value in values.items() if name in keep}
+
+
+def geometry_changes(
+    current: Mapping[str, object], requested: Mapping[str, object]
+) -> dict[str, tuple[object, object]]:
+    """The geometry parameters of ``requested`` whose value differs from ``current``: old, new.
+
+    ``ros2 param load`` sets every parameter of a file, changed or not; only these are news.
+
+    >>> geometry_changes({"pivot_offset_m": 0.2, "phase_rad": 0.0},
+    ...                  {"pivot_offset_m": 0.2, "phase_rad": 0.3, "frame_id": "x"})
+    {'phase_rad': (0.0, 0.3)}
+    """
+    keep = {MECHANISM_PARAMETER, *PARAMETERS_BY_NAME}
+    return {
+        name: (current.get(name), value)
+        for name, value in requested.items()
+        if name in keep and current.get(name) != value
+    }
+
+
+def changes_text(changes: Mapping[str, tuple[object, object]]) -> str:
+    """``name old -> new`` for each change, comma separated."""
+    return ", ".join(f"{name} {old} -> {new}" for name, (old, new) in changes.items())

@@ -201,7 +201,7 @@ def test_geometry_change_resets_the_trail_and_clears_rviz(node):
 
     assert set_parameter(node, "mechanism", "undulatory").successful
     assert node.markers.latest is None and len(node.markers.trail) == 0
-    node._on_motor_state(motor_message(0.3, seconds=10))
+    node._on_motor_state(motor_message(2.3, seconds=10))  # on from 2.0: the motor turns one way
     array = node.markers.build(*node.markers.latest)
     assert array.markers[0].action == array.markers[0].DELETEALL
     links = next(m for m in array.markers if m.ns == "links")

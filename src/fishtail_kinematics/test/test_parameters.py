@@ -11,7 +11,9 @@ from fishtail_kinematics.errors import ParameterError
 from fishtail_kinematics.mechanisms import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.parameters import (
     GEOMETRY_PARAMETERS,
+    changes_text,
     check_parameter,
+    geometry_changes,
     geometry_from_parameters,
     geometry_parameters_in,
     load_parameter_file,
@@ -188,3 +190,16 @@ def test_load_not_a_parameter_file(tmp_path, text, message):
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ParameterError, match=message):
         load_parameter_file(path)
+
+
+def test_geometry_changes_are_only_what_differs():
+    """Setting the same values again is no change; other parameters are not geometry."""
+    current = {"mechanism": "oscillatory", "pivot_offset_m": 0.2, "phase_rad": 0.0}
+    assert geometry_changes(current, dict(current)) == {}
+    assert geometry_changes(current, {"markers_rate_hz": 10.0, "frame_id": "x"}) == {}
+    changes = geometry_changes(current, {**current, "phase_rad": 0.3})
+    assert changes == {"phase_rad": (0.0, 0.3)}
+    assert changes_text(changes) == "phase_rad 0.0 -> 0.3"
+    assert geometry_changes(current, {"mechanism": "undulatory"}) == {
+        "mechanism": ("oscillatory", "undulatory")
+    }
