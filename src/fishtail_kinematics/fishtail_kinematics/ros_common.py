@@ -52,18 +52,31 @@ def geometry_parameter_values(node: Node) -> dict[str, object]:
     return {name: node.get_parameter(name).value for name in names}
 
 
-def diagnostic_array(
+def diagnostic_status(
     node: Node, name: str, level: int, message: str, values: dict[str, str], hardware_id: str = ""
-) -> DiagnosticArray:
-    """One-status DiagnosticArray stamped now."""
-    status = DiagnosticStatus(
+) -> DiagnosticStatus:
+    """A DiagnosticStatus named ``<node's full name>: <name>``."""
+    return DiagnosticStatus(
         level=bytes([level]),
         name=f"{node.get_fully_qualified_name()}: {name}",
         message=message,
         hardware_id=hardware_id,
         values=[KeyValue(key=key, value=value) for key, value in values.items()],
     )
-    array = DiagnosticArray(status=[status])
+
+
+def diagnostic_array(
+    node: Node, name: str, level: int, message: str, values: dict[str, str], hardware_id: str = ""
+) -> DiagnosticArray:
+    """One-status DiagnosticArray stamped now."""
+    return diagnostic_array_of(
+        node, [diagnostic_status(node, name, level, message, values, hardware_id)]
+    )
+
+
+def diagnostic_array_of(node: Node, statuses: list[DiagnosticStatus]) -> DiagnosticArray:
+    """DiagnosticArray of ``statuses`` stamped now."""
+    array = DiagnosticArray(status=statuses)
     array.header.stamp = node.get_clock().now().to_msg()
     return array
 
