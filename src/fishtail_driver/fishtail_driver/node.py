@@ -4,8 +4,11 @@ Topics (relative, so a namespace moves the whole suite):
   sub ``motor/cmd_speed``    std_msgs/Float64, carrier speed [rad/s], >= 0 (one-way motor)
   pub ``motor/joint_state``  sensor_msgs/JointState, unwrapped carrier angle [rad] and speed
                              [rad/s], sensor-data QoS, at ``publish_rate_hz``, stamped with the
-                             time the encoder was read (not the publish time)
-  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``
+                             time the encoder was read (not the publish time); stamps strictly
+                             increase (:mod:`fishtail_driver.stamping`)
+  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``;
+                             WARN when motor/joint_state is rarer or has longer gaps than the
+                             parameters promise (:mod:`fishtail_driver.rate_check`)
 
 A watchdog, on a timer of its own (at most 50 ms, whatever the publish rate), stops the motor
 when no command arrives for ``cmd_timeout_sec``; SIGINT and SIGTERM stop the motor before the
@@ -28,6 +31,7 @@ import threading
 import time
 
 import rclpy
+from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -35,21 +39,25 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
-from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from fishtail_driver.backends import EncoderSample, SimBackend
+from fishtail_driver.backends import EncoderSample, SimBackend, StopOutcome
 from fishtail_driver.motor_model import MotorParameters
+from fishtail_driver.rate_check import RateCheck
+from fishtail_driver.stamping import ClockMapping, IncreasingStamps
 
 BACKENDS = ("sim", "serial")
 #: The serial backend keeps re-sending a non-zero speed for cmd_timeout_sec plus this [s].
 COMMAND_HOLD_MARGIN_S = 0.25
 #: The watchdog is checked at least this often [s].
 WATCHDOG_PERIOD_MAX_S = 0.05
+#: The sample rate is measured over max(diagnostics_period_sec, this) [s]: a shorter window holds
+#: too few samples for a rate (at 100 Hz, one sample more or less in 0.2 s is 5 %).
+RATE_WINDOW_MIN_S = 1.0
 
 
 def watchdog_period_s(cmd_timeout_sec: float) -> float:
@@ -67,6 +75,13 @@ def serial_watchdog_error(cmd_timeout_sec: float) -> str | None:
         "cmd_timeout_sec must be > 0 with backend serial: the watchdog is what stops the real "
         f"motor when commands stop (got {cmd_timeout_sec:g})"
     )
+
+
+def joint_name_error(name: object) -> str | None:
+    """Why ``name`` cannot name the carrier joint in motor/joint_state, or None."""
+    if not isinstance(name, str) or not name.strip():
+        return f"joint_name must not be empty: motor/joint_state names the joint (got {name!r})"
+    return None
 
 
 def _float_descriptor(text: str, low: float, high: float, read_only: bool = False):
@@ -176,12 +191,24 @@ class DriverNode(Node):
         )  # fmt: skip
         self.declare_parameter(
             "joint_name", "carrier_joint",
-            ParameterDescriptor(description="name of the carrier joint in motor/joint_state",
-                                read_only=True),
+            ParameterDescriptor(description="name of the carrier joint in motor/joint_state "
+                                            "(not empty)"),
         )  # fmt: skip
         self.declare_parameter(
             "diagnostics_period_sec", 1.0,
             _float_descriptor("period of /diagnostics [s]", 0.1, 60.0, read_only=True),
+        )  # fmt: skip
+        self.declare_parameter(
+            "rate_warn_fraction", 0.8,
+            _float_descriptor("WARN when motor/joint_state's rate over the last "
+                              "max(diagnostics_period_sec, 1 s) is below this fraction of the "
+                              "promised rate: publish_rate_hz, with backend serial at most "
+                              "serial_poll_rate_hz; 0 disables", 0.0, 1.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "gap_warn_sec", 0.1,
+            _float_descriptor("WARN when motor/joint_state has a gap longer than this (and than "
+                              "3 promised periods) in that window [s]; 0 disables", 0.0, 60.0),
         )  # fmt: skip
         self.declare_parameter(
             "encoder_counts_per_revolution", 2048,
@@ -214,6 +241,9 @@ class DriverNode(Node):
         backend_name = self.get_parameter("backend").value
         if backend_name not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend_name!r}")
+        reason = joint_name_error(self.get_parameter("joint_name").value)
+        if reason is not None:
+            raise ValueError(reason)
         self.cmd_timeout_sec = self.get_parameter("cmd_timeout_sec").value
         if backend_name == "serial":
             reason = serial_watchdog_error(self.cmd_timeout_sec)
@@ -241,6 +271,14 @@ class DriverNode(Node):
         self.watchdog_tripped = False
         self.phase_rebases_seen = 0
         self.max_speed = self.get_parameter("max_speed_rad_s").value
+        self.clock_mapping = ClockMapping()
+        self.stamps = IncreasingStamps()
+        self.rate_check = RateCheck(
+            time.monotonic(),
+            max(self.get_parameter("diagnostics_period_sec").value, RATE_WINDOW_MIN_S),
+            self.get_parameter("rate_warn_fraction").value,
+            self.get_parameter("gap_warn_sec").value,
+        )
 
         self.state_message = JointState()
         self.state_message.name = [self.get_parameter("joint_name").value]
@@ -266,15 +304,26 @@ class DriverNode(Node):
     def _on_set_parameters(self, parameters) -> SetParametersResult:
         # Ranges and read-only are enforced by the descriptors before this runs.
         for parameter in parameters:
+            reason = None
             if parameter.name == "cmd_timeout_sec" and self.backend.name == "serial":
                 reason = serial_watchdog_error(parameter.value)
-                if reason is not None:
-                    return SetParametersResult(successful=False, reason=reason)
+            elif parameter.name == "joint_name":
+                reason = joint_name_error(parameter.value)
+            if reason is not None:
+                return SetParametersResult(successful=False, reason=reason)
         for parameter in parameters:
             if parameter.name == "publish_rate_hz":
                 self.publish_timer.cancel()
                 self.destroy_timer(self.publish_timer)
                 self.publish_timer = self.create_timer(1.0 / parameter.value, self._on_publish_tick)
+                # The promise changed: measure the new rate from now on.
+                self.rate_check.restart(time.monotonic())
+            elif parameter.name == "joint_name":
+                self.state_message.name = [parameter.value]
+            elif parameter.name == "rate_warn_fraction":
+                self.rate_check.min_rate_fraction = parameter.value
+            elif parameter.name == "gap_warn_sec":
+                self.rate_check.max_gap_s = parameter.value
             elif parameter.name == "cmd_timeout_sec":
                 self.cmd_timeout_sec = parameter.value
                 self.watchdog_timer.cancel()
@@ -324,21 +373,42 @@ class DriverNode(Node):
                 " motor stopped"
             )
 
-    def _sample_stamp(self, sample: EncoderSample):
-        """The ROS time at which ``sample`` was read: now minus its age on the monotonic clock."""
-        now = self.get_clock().now()
-        age_ns = max(0, round((time.monotonic() - sample.monotonic_s) * 1e9))
-        return (now - Duration(nanoseconds=age_ns)).to_msg()
+    def _sample_stamp(self, sample: EncoderSample) -> Time | None:
+        """The ROS time at which ``sample`` was read, or None if it is not after the last stamp.
+
+        One mapping from the monotonic clock (on which backends date samples) to ROS time,
+        observed here with the ROS clock read between two monotonic readings; see
+        :mod:`fishtail_driver.stamping`.
+        """
+        before = time.monotonic_ns()
+        ros_ns = self.get_clock().now().nanoseconds
+        after = time.monotonic_ns()
+        self.clock_mapping.observe(before, ros_ns, after)
+        stamp_ns = self.stamps.admit(self.clock_mapping.to_ros_ns(round(sample.monotonic_s * 1e9)))
+        if stamp_ns is None:
+            return None
+        return Time(sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000)
 
     def _on_publish_tick(self) -> None:
         sample = self.backend.read()
         if sample is None:
             return
+        stamp = self._sample_stamp(sample)
+        if stamp is None:
+            return  # counted: dropped_backward_stamps
         message = self.state_message
-        message.header.stamp = self._sample_stamp(sample)
+        message.header.stamp = stamp
         message.position = [sample.angle_rad]
         message.velocity = [sample.velocity_rad_s]
         self.state_publisher.publish(message)
+        self.rate_check.record(sample.monotonic_s)
+
+    def expected_rate_hz(self) -> float:
+        """The motor/joint_state rate the parameters promise (serial: at most the poll rate)."""
+        rate = self.get_parameter("publish_rate_hz").value
+        if self.backend.name == "serial":
+            rate = min(rate, self.get_parameter("serial_poll_rate_hz").value)
+        return rate
 
     def _on_diagnostics(self) -> None:
         level, text, values = self.backend.status()
@@ -353,6 +423,10 @@ class DriverNode(Node):
             )
         if self.watchdog_tripped and level == 0:
             level, text = 1, f"no speed command for over {self.cmd_timeout_sec:g} s: motor stopped"
+        rate = self.rate_check.report(time.monotonic(), self.expected_rate_hz())
+        if rate.shortfall is not None:
+            level = max(level, 1)
+            text = f"{text}; motor/joint_state rate: {rate.shortfall}"
         values = {
             **values,
             "backend": self.backend.name,
@@ -360,6 +434,11 @@ class DriverNode(Node):
             "watchdog_stops": str(self.watchdog_stops),
             "rejected_commands": str(self.rejected_commands),
             "clamped_commands": str(self.clamped_commands),
+            "joint_state_rate_hz": f"{rate.rate_hz:.1f}",
+            "joint_state_expected_rate_hz": f"{rate.expected_rate_hz:g}",
+            "joint_state_longest_gap_ms": f"{rate.longest_gap_s * 1e3:.1f}",
+            "dropped_backward_stamps": str(self.stamps.dropped),
+            "clock_steps": str(self.clock_mapping.steps),
         }
         self.publish_diagnostics(level, text, values)
 
@@ -376,12 +455,27 @@ class DriverNode(Node):
         array.header.stamp = self.get_clock().now().to_msg()
         self.diagnostics_publisher.publish(array)
 
-    def shutdown(self) -> None:
-        """Stop the motor and release the backend; safe to call twice."""
+    def shutdown(self) -> StopOutcome:
+        """Stop the motor and release the backend; logs whether the stop got through.
+
+        Safe to call twice.
+        """
         self.commanded_speed = 0.0
         self.backend.stop()
-        self.backend.close()
-        self.get_logger().info("motor commanded to stop; driver exiting")
+        outcome = self.backend.close()
+        if outcome.confirmed:
+            self.get_logger().info(f"motor stopped: {outcome.detail}; driver exiting")
+        elif outcome.sent:
+            self.get_logger().warning(
+                f"stop command sent but not confirmed: {outcome.detail}; the board stops the "
+                "motor by itself within 2 s of the last speed command it received; driver exiting"
+            )
+        else:
+            self.get_logger().error(
+                f"the stop command could not be sent: {outcome.detail}; the board stops the "
+                "motor by itself within 2 s of the last speed command it received; driver exiting"
+            )
+        return outcome
 
 
 def install_stop_handlers() -> threading.Event:

@@ -17,7 +17,7 @@ from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from fishtail_driver.backends import EncoderSample
+from fishtail_driver.backends import EncoderSample, StopOutcome
 from fishtail_driver.node import COMMAND_HOLD_MARGIN_S, DriverNode, watchdog_period_s
 
 
@@ -77,8 +77,9 @@ class StaleBackend:
     def stop(self) -> None:
         """Ignored."""
 
-    def close(self) -> None:
-        """Ignored."""
+    def close(self) -> StopOutcome:
+        """Nothing to stop."""
+        return StopOutcome(True, True, "stale test backend")
 
     def status(self) -> tuple[int, str, dict[str, str]]:
         """OK."""
@@ -194,3 +195,97 @@ def test_serial_refuses_a_disabled_watchdog_at_start(driver_process, tmp_path):
     errors = [line for line in driver.output().splitlines() if line.startswith("driver: error:")]
     assert len(errors) == 1, driver.output()
     assert "cmd_timeout_sec must be > 0 with backend serial" in errors[0]
+
+
+class BackwardBackend(StaleBackend):
+    """Samples read 1 ms apart, except that every tenth one is dated 5 ms before its predecessor.
+
+    A stamp built from such a sample would go back in time; the node must not publish it.
+    """
+
+    name = "backward"
+    hardware_id = "backward"
+
+    def __init__(self) -> None:
+        """Start at the current monotonic time."""
+        super().__init__(age_s=0.0)
+        self.start_s = time.monotonic()
+
+    def read(self) -> EncoderSample:
+        """Sample k (angle k) dated start + k ms, or 5 ms earlier for every tenth."""
+        k = len(self.reads)
+        when = self.start_s + 0.001 * k - (0.006 if k % 10 == 9 else 0.0)
+        sample = EncoderSample(when, float(k), 0.0)
+        self.reads.append((time.time(), sample))
+        return sample
+
+
+def test_stamps_never_go_back_even_when_sample_times_do(driver_node, ros_probe):
+    """Stamps strictly increase; samples that would be stamped earlier are dropped and counted."""
+    node = driver_node(publish_rate_hz=200.0, diagnostics_period_sec=0.1)
+    node.backend.close()
+    node.backend = BackwardBackend()
+    joints = ros_probe.record(JointState, "motor/joint_state", sensor_qos())
+    arrays = ros_probe.record(DiagnosticArray, "/diagnostics", 50)
+    ros_probe.spin_until(lambda: len(joints) >= 60, 10.0, "60 joint states")
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in joints]
+    assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False)), "a stamp went back"
+    published = {round(m.position[0]) for m in joints}
+    assert not any(k % 10 == 9 for k in published), "a sample dated back in time was published"
+
+    def dropped() -> int:
+        values = {kv.key: kv.value for a in arrays[-1:] for kv in a.status[0].values}
+        return int(values.get("dropped_backward_stamps", "0"))
+
+    ros_probe.spin_until(lambda: dropped() >= 5, 10.0, "dropped_backward_stamps on /diagnostics")
+
+
+def test_sim_is_ok_with_the_measured_rate_and_increasing_stamps(driver_node, ros_probe):
+    """A healthy sim at 200 Hz: OK with the measured rate and longest gap; stamps increase."""
+    driver_node(publish_rate_hz=200.0, diagnostics_period_sec=0.5)
+    joints = ros_probe.record(JointState, "motor/joint_state", sensor_qos())
+    arrays = ros_probe.record(DiagnosticArray, "/diagnostics", 50)
+
+    def ok_with_rate() -> bool:
+        for array in arrays:
+            values = {kv.key: kv.value for kv in array.status[0].values}
+            if array.status[0].level == b"\x00" and "joint_state_rate_hz" in values:
+                return float(values["joint_state_expected_rate_hz"]) == 200.0
+        return False
+
+    ros_probe.spin_until(ok_with_rate, 10.0, "OK with the measured rate")
+    ros_probe.spin_until(lambda: len(joints) >= 400, 10.0, "400 joint states")
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in joints]
+    assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False)), "a stamp went back"
+
+
+def test_sim_rate_below_the_promise_is_a_warning(driver_node, ros_probe):
+    """Samples far rarer than publish_rate_hz promises (the publish timer stalled): WARN."""
+    node = driver_node(publish_rate_hz=200.0, diagnostics_period_sec=0.2)
+    arrays = ros_probe.record(DiagnosticArray, "/diagnostics", 50)
+    node.publish_timer.cancel()
+    stalled = ros_probe.node.create_timer(0.1, node._on_publish_tick)
+
+    def warned() -> bool:
+        return any(a.status[0].level == b"\x01" and "rate" in a.status[0].message for a in arrays)
+
+    ros_probe.spin_until(warned, 10.0, "WARN for the rate")
+    stalled.cancel()
+    status = next(a.status[0] for a in arrays if a.status[0].level == b"\x01")
+    values = {kv.key: kv.value for kv in status.values}
+    assert float(values["joint_state_rate_hz"]) < 0.8 * 200.0
+    assert float(values["joint_state_longest_gap_ms"]) >= 90.0
+
+
+def test_joint_name_can_change_at_run_time_but_never_to_empty(driver_node, ros_probe):
+    """An empty (or blank) name is refused with the reason; another name is taken over."""
+    node = driver_node(publish_rate_hz=100.0)
+    for bad in ("", "   "):
+        (result,) = node.set_parameters([Parameter("joint_name", value=bad)])
+        assert not result.successful and "joint_name must not be empty" in result.reason
+    assert node.get_parameter("joint_name").value == "carrier_joint"
+    (result,) = node.set_parameters([Parameter("joint_name", value="tail_carrier")])
+    assert result.successful, result.reason
+    joints = ros_probe.record(JointState, "motor/joint_state", sensor_qos())
+    ros_probe.spin_until(lambda: joints, 10.0, "a joint state")
+    assert joints[-1].name == ["tail_carrier"]
