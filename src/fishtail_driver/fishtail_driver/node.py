@@ -464,7 +464,8 @@ class DriverNode(Node):
         self.backend.stop()
         outcome = self.backend.close()
         if outcome.confirmed:
-            self.get_logger().info(f"motor stopped: {outcome.detail}; driver exiting")
+            # The wording of the confirmed case is what scripts and tests look for.
+            self.get_logger().info(f"motor commanded to stop; driver exiting ({outcome.detail})")
         elif outcome.sent:
             self.get_logger().warning(
                 f"stop command sent but not confirmed: {outcome.detail}; the board stops the "

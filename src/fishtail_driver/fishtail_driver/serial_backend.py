@@ -341,7 +341,7 @@ class SerialBackend:
         with self._lock:
             final_stop = self._final_stop
         if final_stop == "acknowledged":
-            return StopOutcome(True, True, "stop acknowledged by the board (m 0 0)")
+            return StopOutcome(True, True, "stop acknowledged by the board")
         if final_stop == "sent, not acknowledged":
             return StopOutcome(False, True, f"m 0 0 sent to {self.config.port}, not acknowledged")
         why = "the serial thread did not finish in time" if alive else state
