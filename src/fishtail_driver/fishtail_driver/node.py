@@ -426,7 +426,7 @@ class DriverNode(Node):
         rate = self.rate_check.report(time.monotonic(), self.expected_rate_hz())
         if rate.shortfall is not None:
             level = max(level, 1)
-            text = f"{text}; motor/joint_state rate: {rate.shortfall}"
+            text = f"{text}; motor/joint_state: {rate.shortfall}"
         values = {
             **values,
             "backend": self.backend.name,

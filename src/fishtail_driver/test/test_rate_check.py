@@ -31,7 +31,7 @@ def test_a_slow_stream_falls_short():
     end = stream(check, 0.0, 12.5, 3.0)
     report = check.report(end, 100.0)
     assert report.rate_hz == pytest.approx(12.5, abs=1.0)  # one sample more or less in 1 s
-    assert report.shortfall == f"{report.rate_hz:.1f} Hz, below 80% of the promised 100 Hz"
+    assert report.shortfall == "rate below 80% of the promised 100 Hz"
 
 
 def test_a_gap_falls_short_even_at_a_good_average_rate():
@@ -42,7 +42,7 @@ def test_a_gap_falls_short_even_at_a_good_average_rate():
     report = check.report(end, 200.0)
     assert report.rate_hz > 160.0
     assert report.longest_gap_s == pytest.approx(0.3)
-    assert report.shortfall == "a gap of 300 ms (allowed 100 ms)"
+    assert report.shortfall == "a gap longer than 100 ms"
 
 
 def test_the_open_gap_counts_and_a_gap_across_the_window_start_counts_whole():
@@ -51,7 +51,7 @@ def test_the_open_gap_counts_and_a_gap_across_the_window_start_counts_whole():
     end = stream(check, 0.0, 100.0, 1.0)
     report = check.report(end + 2.0, 100.0)
     assert report.rate_hz == 0.0 and report.longest_gap_s == pytest.approx(2.0)
-    assert "0.0 Hz" in report.shortfall and "a gap of 2000 ms" in report.shortfall
+    assert report.shortfall == "rate below 80% of the promised 100 Hz; a gap longer than 100 ms"
 
 
 def test_slow_promised_rates_have_gaps_by_design():
