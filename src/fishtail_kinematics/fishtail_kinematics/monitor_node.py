@@ -319,10 +319,10 @@ class MonitorNode(Node):
         )
         if stale:
             input_level, input_text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
-        # The verdict first: it is what a reader of this node looks for.
+        # The verdict last: a reader that keeps the latest status of this node keeps the verdict.
         statuses = [
-            diagnostic_status(self, "tail swing symmetry", level, text, values),
             diagnostic_status(self, f"{INPUT_TOPIC} input", input_level, input_text, input_values),
+            diagnostic_status(self, "tail swing symmetry", level, text, values),
         ]
         self.diagnostics_publisher.publish(diagnostic_array_of(self, statuses))
 

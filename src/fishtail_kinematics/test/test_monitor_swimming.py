@@ -68,7 +68,7 @@ def feed(monitor, tail, seconds: float):
 
 def diagnostics_values(monitor) -> dict[str, str]:
     monitor._on_diagnostics()
-    status = monitor.published[-1].status[0]
+    (status,) = [s for s in monitor.published[-1].status if s.name.endswith("symmetry")]
     return {pair.key: pair.value for pair in status.values}
 
 
