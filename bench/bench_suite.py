@@ -51,6 +51,7 @@ from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64
 
+from fishtail_bringup.console import VERDICT_NAMES
 from fishtail_msgs.msg import SymmetryReport, TailState
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,7 +67,6 @@ DISCOVERY_TIMEOUT_S = 20.0
 PROBE_QUEUE_DEPTH = 1000
 #: DiagnosticStatus level the monitor reports while no tail/state reaches it.
 LEVEL_STALE = 3
-VERDICT_NAMES = {0: "OK", 1: "WARN", 2: "ERROR"}
 TICKS_PER_S = os.sysconf("SC_CLK_TCK")
 
 TARGETS = {

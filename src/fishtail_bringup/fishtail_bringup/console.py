@@ -1,5 +1,8 @@
 """What the live console shows, as plain functions of the latest values (no rclpy here).
 
+>>> verdict_text(7, SymmetryReport.NOT_JUDGED, "not judged: a gap of 315 ms")
+'beat 7 NOT_JUDGED: not judged: a gap of 315 ms'
+
 >>> line = status_line(2.5, 4.0, 10.2, 0.372, (0.34, 0.055), "beat 3 OK: symmetric")
 >>> for part in line.split(" | "):
 ...     print(part)
@@ -15,7 +18,21 @@ from __future__ import annotations
 
 import math
 
-VERDICT_NAMES = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
+from fishtail_common.interface import Level
+from fishtail_msgs.msg import SymmetryReport
+
+#: SymmetryReport.verdict values by name, as the message defines them.
+VERDICT_NAMES = {
+    getattr(SymmetryReport, name): name for name in ("OK", "WARN", "ERROR", "NOT_JUDGED")
+}
+
+
+def level_name(level: int) -> str:
+    """A diagnostic level's name (OK, WARN, ERROR, STALE), or its number if unknown."""
+    try:
+        return Level(level).name
+    except ValueError:
+        return str(level)
 
 
 def status_line(

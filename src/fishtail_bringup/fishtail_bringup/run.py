@@ -22,7 +22,7 @@ import threading
 import time
 from pathlib import Path
 
-from fishtail_bringup.console import VERDICT_NAMES, status_line, verdict_text
+from fishtail_bringup.console import level_name, status_line, verdict_text
 from fishtail_common.config_files import default_parameter_file
 from fishtail_common.interface import (
     DIAGNOSTICS,
@@ -225,7 +225,7 @@ class Console:
             previous = self.diagnostics.get(status.name)
             self.diagnostics[status.name] = (level, status.message)
             if (previous is None and level != 0) or (previous is not None and previous[0] != level):
-                name = VERDICT_NAMES.get(level, str(level))
+                name = level_name(level)
                 self.say(f"[diagnostics] {status.name}: {name}: {status.message}")
 
     def command(self, speed: float | None = None) -> None:
