@@ -52,6 +52,7 @@ from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Float64
 
 from fishtail_bringup.console import VERDICT_NAMES
+from fishtail_common.testing import claim_domain
 from fishtail_msgs.msg import SymmetryReport, TailState
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,33 +109,6 @@ sys.exit(driver_module.main())
 
 
 # ---- environment
-
-
-def _udp_ports_in_use() -> set[int]:
-    ports = set()
-    for table in ("/proc/net/udp", "/proc/net/udp6"):
-        with contextlib.suppress(OSError), open(table, encoding="ascii") as stream:
-            next(stream, None)
-            for line in stream:
-                fields = line.split()
-                if len(fields) > 1 and ":" in fields[1]:
-                    ports.add(int(fields[1].rsplit(":", 1)[1], 16))
-    return ports
-
-
-def free_domains(count: int) -> list[int]:
-    """``count`` ROS domain ids in 1..101 whose Fast DDS ports nobody has bound."""
-    ports = _udp_ports_in_use()
-    start = os.getpid() % 101
-    found = []
-    for step in range(101):
-        domain = 1 + (start + step) % 101
-        low = 7400 + 250 * domain
-        if not any(low <= port < low + 250 for port in ports):
-            found.append(domain)
-            if len(found) == count:
-                return found
-    raise SystemExit("bench_suite: no free ROS domain id")
 
 
 def cpu_seconds(pid: int | str = "self") -> float:
@@ -440,6 +414,25 @@ def report(name: str, result: dict) -> None:
         print(f"  CPU {'the three nodes':<22} {suite:5.1f} % of a core (no target)")
 
 
+def run_all(domains: list[int], driver_params: Path, work: Path) -> dict:
+    """Both configurations on their own domains, and the one-process suite without the probe."""
+    print(
+        f"suite benchmark: driver {RATE_HZ:g} Hz at {SPEED_RAD_S:g} rad/s -> kinematics "
+        f"({CONFIG.name}) -> monitor + probe; {WINDOW_S:g} s window after {WARMUP_S:g} s "
+        "warm-up; "
+        f"{os.cpu_count()} cores; ROS domains {domains}"
+    )
+    results = {
+        "one process": run_one_process(domains[0], driver_params),
+        "separate processes": run_separate_processes(domains[1], driver_params, work),
+    }
+    without_probe = run_one_process(domains[2], driver_params, with_probe=False)
+    results["one process"]["cpu_pct"]["suite without the probe"] = without_probe["cpu_pct"][
+        "process"
+    ]
+    return results
+
+
 def main() -> int:
     """Run both configurations, print the figures, write bench/out/bench_suite.json."""
     OUT.mkdir(parents=True, exist_ok=True)
@@ -450,21 +443,10 @@ def main() -> int:
         # Only the publish rate is set for the driver; everything else is its default.
         driver_params = work / "driver.yaml"
         driver_params.write_text(f"driver:\n  ros__parameters:\n    publish_rate_hz: {RATE_HZ!r}\n")
-        domains = free_domains(3)
-        print(
-            f"suite benchmark: driver {RATE_HZ:g} Hz at {SPEED_RAD_S:g} rad/s -> kinematics "
-            f"({CONFIG.name}) -> monitor + probe; {WINDOW_S:g} s window after {WARMUP_S:g} s "
-            "warm-up; "
-            f"{os.cpu_count()} cores; ROS domains {domains}"
-        )
-        results = {
-            "one process": run_one_process(domains[0], driver_params),
-            "separate processes": run_separate_processes(domains[1], driver_params, work),
-        }
-        without_probe = run_one_process(domains[2], driver_params, with_probe=False)
-        results["one process"]["cpu_pct"]["suite without the probe"] = without_probe["cpu_pct"][
-            "process"
-        ]
+        # Three domains, locked like the tests' (a test run in parallel never shares one).
+        with contextlib.ExitStack() as held:
+            domains = [held.enter_context(claim_domain()).domain for _ in range(3)]
+            results = run_all(domains, driver_params, work)
     for name, result in results.items():
         report(name, result)
     (OUT / "bench_suite.json").write_text(json.dumps(results, indent=2) + "\n")
