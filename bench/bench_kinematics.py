@@ -15,7 +15,7 @@ import tracemalloc
 import numpy as np
 from scipy.optimize import fsolve
 
-from fishtail_kinematics.mechanisms import (
+from fishtail_kinematics.engine.mechanisms import (
     OscillatoryGeometry,
     OscillatoryTail,
     UndulatoryGeometry,

@@ -259,8 +259,8 @@ def run_one_process(domain: int, driver_params: Path, with_probe: bool = True) -
     Without the probe's subscriptions, only the CPU figure means something: that of the suite.
     """
     from fishtail_driver.node import DriverNode
-    from fishtail_kinematics.monitor_node import MonitorNode
-    from fishtail_kinematics.node import KinematicsNode
+    from fishtail_kinematics.nodes.kinematics_node import KinematicsNode
+    from fishtail_kinematics.nodes.monitor_node import MonitorNode
 
     args = ["bench", "--ros-args", "--params-file", str(CONFIG)]
     args += ["--params-file", str(driver_params)]
@@ -316,9 +316,9 @@ def run_separate_processes(domain: int, driver_params: Path, work: Path) -> dict
     commands = {
         "driver": [sys.executable, "-c", DRIVER_WRAPPER, str(stamps_path),
                    "--ros-args", "--params-file", str(driver_params)],
-        "kinematics": [sys.executable, "-m", "fishtail_kinematics.node",
+        "kinematics": [sys.executable, "-m", "fishtail_kinematics.nodes.kinematics_node",
                        "--ros-args", "--params-file", str(CONFIG)],
-        "monitor": [sys.executable, "-m", "fishtail_kinematics.monitor_node",
+        "monitor": [sys.executable, "-m", "fishtail_kinematics.nodes.monitor_node",
                     "--ros-args", "--params-file", str(CONFIG)],
     }  # fmt: skip
     processes: dict[str, subprocess.Popen] = {}

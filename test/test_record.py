@@ -119,7 +119,7 @@ def holes_in_tail_state(store, bag: Path, longer_than_s: float = 0.02) -> list[t
 
 def analyse(bag: Path, tmp_path: Path) -> tuple[int, str]:
     result = subprocess.run(
-        [sys.executable, "-m", "fishtail_kinematics.analyse_cli", str(bag), "--output-dir",
+        [sys.executable, "-m", "fishtail_kinematics.offline.analyse_cli", str(bag), "--output-dir",
          str(tmp_path / f"{bag.name}_figures")],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip

@@ -20,9 +20,9 @@ import pytest
 import yaml
 from sensor_msgs.msg import JointState
 
-from fishtail_kinematics.errors import FishtailKinematicsError
-from fishtail_kinematics.mechanisms import make_tail
-from fishtail_kinematics.parameters import (
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_kinematics.engine.parameters import (
     geometry_from_parameters,
     geometry_parameters_in,
     load_parameter_file,

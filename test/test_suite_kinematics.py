@@ -14,8 +14,8 @@ import pytest
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
-from fishtail_kinematics.mechanisms import UndulatoryTail, make_tail
-from fishtail_kinematics.parameters import (
+from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
+from fishtail_kinematics.engine.parameters import (
     geometry_from_parameters,
     geometry_parameters_in,
     load_parameter_file,

@@ -34,8 +34,8 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag2 import Reader
 
-from fishtail_kinematics.mechanisms import make_tail
-from fishtail_kinematics.parameters import (
+from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_kinematics.engine.parameters import (
     geometry_from_parameters,
     geometry_parameters_in,
     load_parameter_file,
@@ -499,10 +499,16 @@ def test_driver_on_the_fish_tail_on_the_shore(two_hosts, ros_domain, tmp_path, m
         "driver", fish, [python, "-m", "fishtail_driver.node", *params], fish_env
     )
     kinematics = two_hosts.start(
-        "kinematics", shore, [python, "-m", "fishtail_kinematics.node", *params], shore_env
+        "kinematics",
+        shore,
+        [python, "-m", "fishtail_kinematics.nodes.kinematics_node", *params],
+        shore_env,
     )
     monitor = two_hosts.start(
-        "monitor", shore, [python, "-m", "fishtail_kinematics.monitor_node", *params], shore_env
+        "monitor",
+        shore,
+        [python, "-m", "fishtail_kinematics.nodes.monitor_node", *params],
+        shore_env,
     )
     bag = tmp_path / "shore_bag"
     recorder = two_hosts.start(
@@ -592,7 +598,7 @@ def test_driver_on_the_fish_tail_on_the_shore(two_hosts, ros_domain, tmp_path, m
     for topic in ("/motor/joint_state", "/tail/state", "/motor/cmd_speed", "/tail/symmetry"):
         assert counts.get(topic, 0) > 0, counts
     analysis = subprocess.run(
-        [python, "-m", "fishtail_kinematics.analyse_cli", str(bag), "--output-dir",
+        [python, "-m", "fishtail_kinematics.offline.analyse_cli", str(bag), "--output-dir",
          str(tmp_path / "figures")],
         capture_output=True, text=True, timeout=ANALYSE_TIMEOUT_S, check=False,
     )  # fmt: skip

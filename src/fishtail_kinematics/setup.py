@@ -21,10 +21,10 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
-            "node = fishtail_kinematics.node:main",
-            "monitor = fishtail_kinematics.monitor_node:main",
-            "fishtail-kinematics = fishtail_kinematics.cli:main",
-            "fishtail-analyse = fishtail_kinematics.analyse_cli:main",
+            "node = fishtail_kinematics.nodes.kinematics_node:main",
+            "monitor = fishtail_kinematics.nodes.monitor_node:main",
+            "fishtail-kinematics = fishtail_kinematics.offline.cli:main",
+            "fishtail-analyse = fishtail_kinematics.offline.analyse_cli:main",
         ],
     },
 )

@@ -108,6 +108,10 @@ class SuiteNode:
 #: The suite, in start-up order (data flows from the first to the last).
 SUITE_NODES: tuple[SuiteNode, ...] = (
     SuiteNode("driver", "fishtail_driver", "driver", "fishtail_driver.node"),
-    SuiteNode("kinematics", "fishtail_kinematics", "node", "fishtail_kinematics.node"),
-    SuiteNode("monitor", "fishtail_kinematics", "monitor", "fishtail_kinematics.monitor_node"),
+    SuiteNode(
+        "kinematics", "fishtail_kinematics", "node", "fishtail_kinematics.nodes.kinematics_node"
+    ),
+    SuiteNode(
+        "monitor", "fishtail_kinematics", "monitor", "fishtail_kinematics.nodes.monitor_node"
+    ),
 )

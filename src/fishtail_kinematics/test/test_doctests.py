@@ -18,20 +18,16 @@ ROS_IMPORT = re.compile(r"^\s*(import|from)\s+(rclpy|rcl_interfaces|\w+_msgs)\b"
 
 
 def pure_modules():
-    """Names of the package's modules that do not import ROS, with their source."""
-    names = ["fishtail_kinematics"]
-    names += [
-        f"fishtail_kinematics.{info.name}"
-        for info in pkgutil.iter_modules([str(PACKAGE_DIR)])
-        if not info.ispkg
-    ]
+    """Names of the package's modules (subpackages included) that do not import ROS."""
     found = []
-    for name in sorted(names):
-        path = PACKAGE_DIR / (
-            "__init__.py"
-            if name == "fishtail_kinematics"
-            else f"{name.removeprefix('fishtail_kinematics.')}.py"
+    modules = [("fishtail_kinematics", PACKAGE_DIR / "__init__.py")]
+    for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="fishtail_kinematics."):
+        relative = Path(*info.name.split(".")[1:])
+        path = PACKAGE_DIR / relative / "__init__.py" if info.ispkg else PACKAGE_DIR / (
+            f"{relative}.py"
         )
+        modules.append((info.name, path))
+    for name, path in sorted(modules):
         source = path.read_text(encoding="utf-8")
         if not ROS_IMPORT.search(source):
             found.append((name, ">>>" in source))
@@ -42,7 +38,7 @@ def test_the_engine_modules_are_found():
     """The discovery sees the engine modules (so the doctest run below cannot be empty)."""
     names = {name for name, _ in pure_modules()}
     for module in ("errors", "mechanisms", "design", "parameters"):
-        assert f"fishtail_kinematics.{module}" in names
+        assert f"fishtail_kinematics.engine.{module}" in names
 
 
 @pytest.mark.parametrize(("name", "has_examples"), pure_modules())

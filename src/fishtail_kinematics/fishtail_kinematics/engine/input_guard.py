@@ -1,0 +1,206 @@
+"""Plausibility of a carrier-angle stream: which samples the nodes drop, and why (no rclpy).
+
+The kinematics node checks each ``motor/joint_state`` sample and the monitor each ``tail/state``
+sample (its ``motor_angle``) with :class:`CarrierGuard` before using it; a dropped sample is
+counted per reason in :class:`DropCounts`, which the nodes publish on ``/diagnostics``.
+
+A sample is dropped, checked in this order, when
+
+* ``non_finite``: the angle, or another value the caller needs, is NaN or infinite;
+* ``angle_out_of_range``: ``|angle|`` exceeds :data:`MAX_ABS_CARRIER_ANGLE_RAD` (1e9 rad). That
+  is 1.6e8 carrier turns, 1.6 years at the driver's default top speed of 20 rad/s, so no real run
+  gets there; and up to it a double still resolves the angle to 1.2e-7 rad, finer than any
+  encoder the driver supports at its defaults (3e-3 rad a count), so the tail pose stays exact. A
+  larger angle is a corrupt value, not a long run;
+* ``stamp_in_future``: the stamp is more than ``future_tolerance_ns`` ahead of the node's clock
+  (a clock that is off, or a corrupt stamp; a stamp of 0 is never ahead);
+* ``stamp_not_increasing``: the stamp is not after the last accepted sample's (a repeat, or
+  samples out of order);
+* ``backwards``: the angle is more than ``backwards_tolerance_rad`` below the highest accepted
+  angle. The motor turns one way only, so backwards motion is a fault (wiring, encoder, a second
+  publisher); the tolerance lets encoder jitter of a few counts through. Comparing with the
+  highest angle, not the previous one, keeps a slow backwards creep from passing in small steps.
+
+When nothing has been accepted for ``restart_after_ns`` (the nodes use their
+``stale_timeout_sec``), the next finite, in-range sample that is not ahead of the clock is
+accepted whatever its stamp and angle and becomes the new reference: a restarted driver (angle
+from 0 again) or a replayed recording is followed after that pause instead of being refused
+forever.
+
+>>> guard = CarrierGuard()
+>>> [guard.check(t, angle, 0.0, now_ns=10**12) for t, angle in ((1, 0.0), (2, 0.5), (3, 0.2))]
+[None, None, 'backwards']
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from fishtail_kinematics.engine.stream_timing import PeriodTiming
+
+#: Largest plausible |carrier angle| [rad] (module docstring: why 1e9).
+MAX_ABS_CARRIER_ANGLE_RAD = 1e9
+#: Default backwards tolerance [rad]: about three counts of the driver's default encoder
+#: (2048 counts a turn, gear ratio 1).
+DEFAULT_BACKWARDS_TOLERANCE_RAD = 0.01
+#: Default lead of a stamp over the node's clock that is still accepted [s]: generous for two
+#: hosts whose clocks are synchronised, far below the hour a wrong clock is typically off.
+DEFAULT_FUTURE_TOLERANCE_S = 1.0
+
+NON_FINITE = "non_finite"
+ANGLE_OUT_OF_RANGE = "angle_out_of_range"
+STAMP_IN_FUTURE = "stamp_in_future"
+STAMP_NOT_INCREASING = "stamp_not_increasing"
+BACKWARDS = "backwards"
+#: Reasons of :meth:`CarrierGuard.check`, in the order they are checked.
+GUARD_REASONS = (NON_FINITE, ANGLE_OUT_OF_RANGE, STAMP_IN_FUTURE, STAMP_NOT_INCREASING, BACKWARDS)
+#: The nodes' parameters that configure a guard (stale_timeout_sec is declared with their other
+#: parameters): name -> (default, description, minimum, maximum).
+GUARD_PARAMETERS = {
+    "backwards_tolerance_rad": (
+        DEFAULT_BACKWARDS_TOLERANCE_RAD,
+        "a carrier angle this far below the highest one so far is dropped (encoder jitter "
+        "passes) [rad]",
+        0.0,
+        10.0,
+    ),
+    "future_tolerance_sec": (
+        DEFAULT_FUTURE_TOLERANCE_S,
+        "a sample stamped further ahead of this node's clock is dropped [s]",
+        0.001,
+        86400.0,
+    ),
+}
+#: What each reason means, for a log line.
+REASON_TEXT = {
+    NON_FINITE: "a NaN or infinite value",
+    ANGLE_OUT_OF_RANGE: f"a carrier angle beyond +/-{MAX_ABS_CARRIER_ANGLE_RAD:g} rad",
+    STAMP_IN_FUTURE: "a stamp ahead of this node's clock",
+    STAMP_NOT_INCREASING: "a stamp not after the previous sample's",
+    BACKWARDS: "a carrier angle going backwards (the motor turns one way only)",
+}
+
+
+class CarrierGuard:
+    """The plausibility rules of the module docstring for one stream, with its reference sample.
+
+    :meth:`check` costs a few comparisons and allocates nothing.
+    """
+
+    def __init__(
+        self,
+        backwards_tolerance_rad: float = DEFAULT_BACKWARDS_TOLERANCE_RAD,
+        future_tolerance_ns: int = int(DEFAULT_FUTURE_TOLERANCE_S * 1e9),
+        restart_after_ns: int = 2_000_000_000,
+    ) -> None:
+        """Create a guard that has accepted nothing yet."""
+        self.backwards_tolerance_rad = backwards_tolerance_rad
+        self.future_tolerance_ns = future_tolerance_ns
+        self.restart_after_ns = restart_after_ns
+        self._last_stamp_ns = 0
+        self._highest_angle = -math.inf
+        self._accepted_at_ns: int | None = None
+
+    def check(self, stamp_ns: int, angle_rad: float, others: float, now_ns: int) -> str | None:
+        """None if the sample is plausible (it becomes the reference), else the reason to drop it.
+
+        ``others`` is the sum of the sample's other values that must be finite (a sum is NaN or
+        infinite when one of its terms is); ``now_ns`` is the node's clock, 0 if it has no time
+        yet (simulated time before the first /clock), which skips the future check.
+        """
+        if not (math.isfinite(angle_rad) and math.isfinite(others)):
+            return NON_FINITE
+        if not abs(angle_rad) <= MAX_ABS_CARRIER_ANGLE_RAD:
+            return ANGLE_OUT_OF_RANGE
+        if now_ns > 0 and stamp_ns - now_ns > self.future_tolerance_ns:
+            return STAMP_IN_FUTURE
+        accepted_at = self._accepted_at_ns
+        if accepted_at is not None and now_ns - accepted_at <= self.restart_after_ns:
+            if stamp_ns <= self._last_stamp_ns:
+                return STAMP_NOT_INCREASING
+            if angle_rad < self._highest_angle - self.backwards_tolerance_rad:
+                return BACKWARDS
+            if angle_rad > self._highest_angle:
+                self._highest_angle = angle_rad
+        else:
+            self._highest_angle = angle_rad
+        self._last_stamp_ns = stamp_ns
+        self._accepted_at_ns = now_ns
+        return None
+
+    def reset(self) -> None:
+        """Forget the reference: the next plausible sample is accepted whatever its stamp."""
+        self._accepted_at_ns = None
+
+    def apply_parameters(self, values: Mapping[str, float]) -> None:
+        """Take the nodes' parameters among ``values`` (:data:`GUARD_PARAMETERS`), in SI units."""
+        if "backwards_tolerance_rad" in values:
+            self.backwards_tolerance_rad = float(values["backwards_tolerance_rad"])
+        if "future_tolerance_sec" in values:
+            self.future_tolerance_ns = int(values["future_tolerance_sec"] * 1e9)
+        if "stale_timeout_sec" in values:
+            # After the nodes' stale timeout without an accepted sample, follow the stream afresh.
+            self.restart_after_ns = int(values["stale_timeout_sec"] * 1e9)
+
+
+class DropCounts:
+    """Dropped samples per reason: in total, and since the last :meth:`take_period`."""
+
+    def __init__(self, reasons: tuple[str, ...]) -> None:
+        """Counters at zero for ``reasons`` (the keys of the diagnostics, in this order)."""
+        self.total = dict.fromkeys(reasons, 0)
+        self._period = dict.fromkeys(reasons, 0)
+
+    def count(self, reason: str) -> None:
+        """One more sample dropped for ``reason``."""
+        self.total[reason] += 1
+        self._period[reason] += 1
+
+    @property
+    def dropped(self) -> int:
+        """Samples dropped in total."""
+        return sum(self.total.values())
+
+    def take_period(self) -> dict[str, int]:
+        """The non-zero counts since the last call, most frequent first; the counts restart."""
+        counts = sorted(
+            ((reason, n) for reason, n in self._period.items() if n), key=lambda item: -item[1]
+        )
+        for reason in self._period:
+            self._period[reason] = 0
+        return dict(counts)
+
+    def values(self) -> dict[str, str]:
+        """Diagnostic values: ``dropped`` and ``dropped_<reason>`` for every reason."""
+        values = {"dropped": str(self.dropped)}
+        values.update((f"dropped_{reason}", str(n)) for reason, n in self.total.items())
+        return values
+
+
+def drops_text(topic: str, counts: Mapping[str, int], period_s: float) -> str:
+    """One line naming the reasons, e.g. ``dropped 12 tail/state samples in 1 s: 10 backwards``."""
+    total = sum(counts.values())
+    reasons = ", ".join(f"{n} {reason}" for reason, n in counts.items())
+    return f"dropped {total} {topic} samples in {period_s:g} s: {reasons}"
+
+
+def input_status(
+    topic: str, drops: DropCounts, timing: PeriodTiming, period_s: float
+) -> tuple[int, str, dict[str, str]]:
+    """Level (0 OK, 1 WARN), message and values of an input stream over one period.
+
+    WARN when samples were dropped, or the stream had gaps or a low rate (:mod:`stream_timing`);
+    the message names each problem, the values carry the counts per reason, the measured rate,
+    the usual interval and the longest interval of the period.
+    """
+    counts = drops.take_period()
+    problems = []
+    if counts:
+        problems.append(drops_text(topic, counts, period_s))
+    if not timing.healthy:
+        problems.append(timing.describe(topic))
+    values = {**drops.values(), **timing.values()}
+    if problems:
+        return 1, "; ".join(problems), values
+    return 0, timing.describe(topic), values

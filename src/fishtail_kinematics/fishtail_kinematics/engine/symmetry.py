@@ -1,0 +1,327 @@
+"""Tail-beat segmentation and per-beat swing statistics (used by the monitor and offline analysis).
+
+A beat runs from one upward zero crossing of theta3 to the next. A crossing counts only after
+theta3 has been below ``-hysteresis_rad`` (a Schmitt trigger), so encoder noise around zero does not
+split beats. Crossing times are interpolated linearly between samples, and so are the integrals,
+so the statistics do not depend on the sample rate to first order.
+
+A symmetric linkage spends exactly half of each beat on each side (theta3 = 0 at mid-stroke), so
+the share is the sharpest detector of a skewed geometry; the mean of theta3 is not zero even for
+the symmetric one (theta3 is not odd in OP) and gets a looser tolerance.
+
+Shares and the mean are integrals over the beat. Given the carrier angle with each sample, the
+tracker integrates over the carrier angle instead of time: then a motor whose speed ripples
+within a revolution (a board's PID, a noisy load) does not look like a skewed linkage, and the
+verdict depends on the geometry alone. At constant speed both are the same; without the carrier
+angle the integrals are over time. Period and frequency always come from time.
+
+Some beats are not judged (:attr:`Verdict.NOT_JUDGED`), because a verdict on them would be a
+verdict on missing data: a beat that contains a gap in the input (the caller says which
+intervals are gaps, see :mod:`fishtail_kinematics.engine.stream_timing`; peaks and integrals are
+interpolated across it), and a beat whose mean and shares are undefined because its carrier
+angle did not advance.
+
+>>> import math
+>>> tracker = BeatTracker()
+>>> def theta3(t):
+...     return 0.4 * math.sin(2 * math.pi * (t - 0.05))
+>>> beats = [tracker.add(k * 0.01, theta3(k * 0.01)) for k in range(400)]
+>>> [round(b.period_s, 6) for b in beats if b is not None]
+[1.0, 1.0, 1.0]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+
+from fishtail_kinematics.engine.stream_timing import StreamTiming
+
+
+class Verdict(enum.IntEnum):
+    """Per-beat verdict; values as in fishtail_msgs/SymmetryReport and DiagnosticStatus."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    NOT_JUDGED = 3
+
+
+@dataclasses.dataclass(frozen=True)
+class SymmetryTolerances:
+    """Limits of a beat's asymmetry; WARN above the first of each pair, ERROR above the second."""
+
+    time_share_warn: float = 0.005
+    time_share_error: float = 0.02
+    mean_angle_warn_rad: float = 0.01
+    mean_angle_error_rad: float = 0.035
+    peak_asymmetry_warn_rad: float = 0.01
+    peak_asymmetry_error_rad: float = 0.035
+
+    def __post_init__(self) -> None:
+        """Refuse negative, non-finite or inverted limits."""
+        pairs = (
+            ("time_share", self.time_share_warn, self.time_share_error),
+            ("mean_angle", self.mean_angle_warn_rad, self.mean_angle_error_rad),
+            ("peak_asymmetry", self.peak_asymmetry_warn_rad, self.peak_asymmetry_error_rad),
+        )
+        for name, warn, error in pairs:
+            if not (math.isfinite(warn) and math.isfinite(error) and 0.0 <= warn <= error):
+                raise ValueError(f"{name} tolerances need 0 <= warn <= error, got {warn}, {error}")
+
+
+@dataclasses.dataclass(frozen=True)
+class BeatStatistics:
+    """One tail beat: peaks, amplitude, time-mean of theta3, time on each side, period."""
+
+    index: int
+    start_s: float
+    end_s: float
+    positive_peak_rad: float
+    negative_peak_rad: float
+    mean_angle_rad: float
+    positive_time_share: float
+    negative_time_share: float
+    #: Longest interval between samples inside the beat that the caller marked as a gap; 0 if
+    #: none.
+    gap_s: float = 0.0
+
+    @property
+    def period_s(self) -> float:
+        """Duration of the beat."""
+        return self.end_s - self.start_s
+
+    @property
+    def frequency_hz(self) -> float:
+        """Tail-beat frequency."""
+        return 1.0 / self.period_s
+
+    @property
+    def amplitude_rad(self) -> float:
+        """Half the peak-to-peak swing."""
+        return 0.5 * (self.positive_peak_rad - self.negative_peak_rad)
+
+    @property
+    def peak_asymmetry_rad(self) -> float:
+        """Positive peak + negative peak: zero when the swing is centred on theta3 = 0."""
+        return self.positive_peak_rad + self.negative_peak_rad
+
+    @property
+    def time_share_imbalance(self) -> float:
+        """Positive minus negative time share, halved: zero for a symmetric swing."""
+        return 0.5 * (self.positive_time_share - self.negative_time_share)
+
+
+def not_judged_reason(beat: BeatStatistics) -> str | None:
+    """Why ``beat`` cannot be judged, or None if it can."""
+    reasons = []
+    if not (math.isfinite(beat.mean_angle_rad) and math.isfinite(beat.positive_time_share)):
+        reasons.append(
+            "the carrier angle did not advance over the beat, so its mean and shares are "
+            "undefined (reported as 0)"
+        )
+    if beat.gap_s > 0.0:
+        reasons.append(
+            f"the input has a gap of {beat.gap_s * 1e3:.0f} ms inside the beat (samples lost "
+            f"or late), peaks {math.degrees(beat.positive_peak_rad):+.3f}/"
+            f"{math.degrees(beat.negative_peak_rad):+.3f} deg are from what arrived"
+        )
+    return "not judged: " + "; ".join(reasons) if reasons else None
+
+
+def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict, str]:
+    """Verdict and a one-line reason that quotes the measured bias (NOT_JUDGED: why not)."""
+    reason = not_judged_reason(beat)
+    if reason is not None:
+        return Verdict.NOT_JUDGED, reason
+    degrees = math.degrees
+    measures = (
+        ("time share", beat.time_share_imbalance, tolerances.time_share_warn,
+         tolerances.time_share_error, f"{beat.positive_time_share:.4f} of the beat on +side",
+         lambda limit: f"0.5 +/- {limit:g}"),
+        ("mean angle", beat.mean_angle_rad, tolerances.mean_angle_warn_rad,
+         tolerances.mean_angle_error_rad, f"mean theta3 {degrees(beat.mean_angle_rad):+.3f} deg",
+         lambda limit: f"+/- {degrees(limit):.3f} deg"),
+        ("peak asymmetry", beat.peak_asymmetry_rad, tolerances.peak_asymmetry_warn_rad,
+         tolerances.peak_asymmetry_error_rad,
+         f"peaks {degrees(beat.positive_peak_rad):+.3f}/{degrees(beat.negative_peak_rad):+.3f} deg",
+         lambda limit: f"sum within +/- {degrees(limit):.3f} deg"),
+    )  # fmt: skip
+    verdict = Verdict.OK
+    failures = []
+    for name, value, warn, error, text, limit_text in measures:
+        # Written as "not <=" so that a NaN figure that got past not_judged_reason() (a peak)
+        # is an error, never a pass.
+        if not abs(value) <= error:
+            verdict = Verdict.ERROR
+            failures.append(f"{name} off: {text}, limit {limit_text(error)}")
+        elif not abs(value) <= warn:
+            verdict = max(verdict, Verdict.WARN)
+            failures.append(f"{name} off: {text}, limit {limit_text(warn)}")
+    if not failures:
+        return verdict, (
+            f"symmetric: {beat.positive_time_share:.4f} of the beat on +side, "
+            f"mean theta3 {math.degrees(beat.mean_angle_rad):+.3f} deg"
+        )
+    return verdict, "asymmetric swing: " + "; ".join(failures)
+
+
+class BeatTracker:
+    """Streaming beat segmentation: feed samples with :meth:`add`, get a beat when one completes.
+
+    Per sample it does a handful of float operations and allocates nothing unless a beat ends.
+    Samples must come in increasing time; an older or equal time, or a non-finite value, is
+    ignored and counted in :attr:`rejected_samples` (the caller reports it). The caller marks a
+    sample that follows a gap in the input (``after_gap``); the beats the gap falls in carry its
+    length in :attr:`BeatStatistics.gap_s` and are not judged.
+    """
+
+    def __init__(self, hysteresis_rad: float = 0.01) -> None:
+        """Create a tracker that needs theta3 below -hysteresis_rad before a crossing counts."""
+        if not (math.isfinite(hysteresis_rad) and hysteresis_rad >= 0.0):
+            raise ValueError(f"hysteresis_rad must be finite and >= 0, got {hysteresis_rad!r}")
+        self.hysteresis_rad = hysteresis_rad
+        self.beats_completed = 0
+        self.rejected_samples = 0
+        self._last_time: float | None = None
+        self._last_value = 0.0
+        self._armed = False
+        self._in_beat = False
+        self._last_coordinate = 0.0
+        self._reset_beat(0.0, 0.0)
+
+    def _reset_beat(self, start_s: float, start_coordinate: float) -> None:
+        self._start = start_s
+        self._start_coordinate = start_coordinate
+        self._maximum = -math.inf
+        self._minimum = math.inf
+        self._integral = 0.0
+        self._positive_time = 0.0
+        self._gap = 0.0
+
+    def reset(self) -> None:
+        """Forget the beat in progress (e.g. after a gap in the data)."""
+        self._last_time = None
+        self._armed = False
+        self._in_beat = False
+
+    def add(
+        self,
+        time_s: float,
+        theta3: float,
+        carrier_rad: float | None = None,
+        after_gap: bool = False,
+    ) -> BeatStatistics | None:
+        """Add one sample; return the beat it completes, if any.
+
+        ``carrier_rad`` (the unwrapped carrier angle of the sample) makes the shares and the mean
+        carrier-angle weighted; give it with every sample or with none. ``after_gap``: the
+        interval since the previous sample is a gap in the input.
+        """
+        coordinate = time_s if carrier_rad is None else carrier_rad
+        if not (math.isfinite(time_s) and math.isfinite(theta3) and math.isfinite(coordinate)):
+            self.rejected_samples += 1
+            return None
+        previous_time = self._last_time
+        if previous_time is None:
+            self._last_time, self._last_value = time_s, theta3
+            self._last_coordinate = coordinate
+            self._armed = theta3 < -self.hysteresis_rad
+            return None
+        if time_s <= previous_time:
+            self.rejected_samples += 1
+            return None
+        previous = self._last_value
+        previous_coordinate = self._last_coordinate
+        self._last_time, self._last_value = time_s, theta3
+        self._last_coordinate = coordinate
+        completed = None
+        gap = time_s - previous_time if after_gap else 0.0
+        if gap > self._gap:
+            # Before a crossing in this interval: the beat it ends and the one it starts both
+            # contain part of the gap.
+            self._gap = gap
+        if self._armed and previous < 0.0 <= theta3:
+            fraction = -previous / (theta3 - previous)
+            crossing = previous_time + (time_s - previous_time) * fraction
+            step = coordinate - previous_coordinate
+            crossing_coordinate = previous_coordinate + step * fraction
+            if self._in_beat:
+                self._accumulate(previous_coordinate, previous, crossing_coordinate, 0.0)
+                completed = self._finish(crossing, crossing_coordinate)
+            self._in_beat = True
+            self._armed = False
+            self._reset_beat(crossing, crossing_coordinate)
+            self._gap = gap
+            self._accumulate(crossing_coordinate, 0.0, coordinate, theta3)
+        elif self._in_beat:
+            self._accumulate(previous_coordinate, previous, coordinate, theta3)
+        if theta3 < -self.hysteresis_rad:
+            self._armed = True
+        return completed
+
+    def _accumulate(self, t0: float, v0: float, t1: float, v1: float) -> None:
+        dt = t1 - t0
+        if v0 > self._maximum:
+            self._maximum = v0
+        if v1 > self._maximum:
+            self._maximum = v1
+        if v0 < self._minimum:
+            self._minimum = v0
+        if v1 < self._minimum:
+            self._minimum = v1
+        self._integral += 0.5 * (v0 + v1) * dt
+        if v0 >= 0.0 and v1 >= 0.0:
+            self._positive_time += dt
+        elif (v0 >= 0.0) != (v1 >= 0.0):
+            # The segment crosses zero: split it at the interpolated crossing.
+            positive_end = v0 if v0 >= 0.0 else v1
+            self._positive_time += dt * positive_end / (abs(v0) + abs(v1))
+
+    def _finish(self, end_s: float, end_coordinate: float) -> BeatStatistics:
+        period = end_s - self._start
+        measure = end_coordinate - self._start_coordinate
+        if not measure > 0.0:
+            # A carrier angle that did not advance over a whole beat is not a usable weight.
+            measure, self._integral, self._positive_time = period, math.nan, math.nan
+        positive_share = self._positive_time / measure
+        beat = BeatStatistics(
+            index=self.beats_completed,
+            start_s=self._start,
+            end_s=end_s,
+            positive_peak_rad=self._maximum,
+            negative_peak_rad=self._minimum,
+            mean_angle_rad=self._integral / measure,
+            positive_time_share=positive_share,
+            negative_time_share=1.0 - positive_share,
+            gap_s=self._gap,
+        )
+        self.beats_completed += 1
+        return beat
+
+
+def beats_of(
+    time_s, theta3, hysteresis_rad: float = 0.01, carrier_rad=None, gap_reset_s: float = math.inf
+) -> list[BeatStatistics]:
+    """All complete beats of a recorded series (the same code path as the live monitor).
+
+    As in the monitor, gaps are found by
+    :class:`~fishtail_kinematics.engine.stream_timing.StreamTiming` on the stamps, and an interval
+    longer than ``gap_reset_s`` forgets the beat in progress.
+    """
+    tracker = BeatTracker(hysteresis_rad)
+    timing = StreamTiming()
+    beats = []
+    carriers = [None] * len(time_s) if carrier_rad is None else carrier_rad
+    previous = None
+    for t, value, carrier in zip(time_s, theta3, carriers, strict=True):
+        t = float(t)
+        if previous is not None and t - previous > gap_reset_s:
+            tracker.reset()
+        previous = t
+        gap = timing.observe(t)
+        beat = tracker.add(t, float(value), None if carrier is None else float(carrier), gap)
+        if beat is not None:
+            beats.append(beat)
+    return beats

@@ -1,0 +1,361 @@
+"""Monitor node: is the tail's swing symmetric?
+
+Topics (relative names):
+  sub ``tail/state``       fishtail_msgs/TailState (theta3, the tip's lateral position and
+                           velocity, theta5 for mechanism 2, the stamp), sensor-data QoS
+  sub ``motor/cmd_speed``  std_msgs/Float64, to know whether beats are expected
+  pub ``tail/symmetry``    fishtail_msgs/SymmetryReport, one per completed beat (reliable),
+                           framed like the tail/state it was computed from; NOT_JUDGED for a
+                           beat with a gap in tail/state or undefined figures (never NaN)
+  pub ``/diagnostics``     diagnostic_msgs/DiagnosticArray with two statuses.
+                           ``tail swing symmetry``: OK / WARN / ERROR from the latest judged
+                           beat against the tolerances, STALE when tail/state stops, ERROR when
+                           the motor is commanded but no beat completes; also the swimming
+                           figures of the latest beat (tip excursion, Strouhal number, Lighthill
+                           mean thrust) for the parameters forward_speed_m_s, fin_span_m and
+                           water_density_kg_m3 (docs/swimming.md).
+                           ``tail/state input``: WARN when samples were dropped (counts per
+                           reason) or tail/state has gaps or a low rate, as the kinematics node
+                           reports its own input
+
+The statistics are :mod:`fishtail_kinematics.engine.symmetry` and
+:mod:`fishtail_kinematics.engine.swimming`, the same code the offline analysis uses; the input is
+checked by :mod:`fishtail_kinematics.engine.input_guard` and
+:mod:`fishtail_kinematics.engine.stream_timing`.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from std_msgs.msg import Float64
+
+from fishtail_kinematics.engine.input_guard import (
+    GUARD_PARAMETERS,
+    GUARD_REASONS,
+    REASON_TEXT,
+    CarrierGuard,
+    DropCounts,
+    input_status,
+)
+from fishtail_kinematics.engine.stream_timing import StreamTiming
+from fishtail_kinematics.engine.swimming import (
+    SWIMMING_PARAMETERS,
+    SwimmingParameters,
+    TipKinematics,
+    TipSampleBuffer,
+    figures_from_kinematics,
+)
+from fishtail_kinematics.engine.symmetry import (
+    BeatStatistics,
+    BeatTracker,
+    SymmetryTolerances,
+    Verdict,
+    judge,
+)
+from fishtail_kinematics.nodes.ros_common import (
+    LEVEL_STALE,
+    diagnostic_array_of,
+    diagnostic_status,
+    float_descriptor,
+    run_node,
+)
+from fishtail_msgs.msg import SymmetryReport, TailState
+
+_TOLERANCE_NAMES = tuple(f.name for f in SymmetryTolerances.__dataclass_fields__.values())
+# Speeds below this are "not commanded" (a beat would take longer than ~2 minutes).
+_MIN_COMMANDED_SPEED_RAD_S = 0.05
+_SWIMMING_PARAMETERS = SWIMMING_PARAMETERS
+INPUT_TOPIC = "tail/state"
+DIAGNOSTICS_PERIOD_S = 1.0
+
+
+def _finite(value: float) -> float:
+    # An undefined figure (only in a NOT_JUDGED beat, whose message names it) is published as 0:
+    # a NaN in a report breaks consumers that compare or plot it.
+    return value if math.isfinite(value) else 0.0
+
+
+class MonitorNode(Node):
+    """Thin shell around :class:`BeatTracker` and :func:`judge`."""
+
+    def __init__(self) -> None:
+        """Declare parameters and wire topics."""
+        super().__init__("monitor")
+        defaults = SymmetryTolerances()
+        for name in _TOLERANCE_NAMES:
+            unit = "rad" if name.endswith("_rad") else "share of the beat, |share - 0.5|"
+            level = "WARN" if "warn" in name else "ERROR"
+            self.declare_parameter(
+                name,
+                getattr(defaults, name),
+                float_descriptor(f"{level} above this [{unit}]", 0.0, 1.0),
+            )
+        self.declare_parameter(
+            "hysteresis_rad", 0.01,
+            float_descriptor("theta3 must go below -hysteresis before an upward zero crossing "
+                             "counts as a new beat [rad]", 0.0, 0.5),
+        )  # fmt: skip
+        self.declare_parameter(
+            "stale_timeout_sec", 2.0,
+            float_descriptor("STALE after this long without tail/state [s]", 0.1, 600.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "beat_timeout_sec", 5.0,
+            float_descriptor("ERROR when commanded but no beat for max(this, 2 expected periods)"
+                             " [s]", 0.5, 3600.0),
+        )  # fmt: skip
+        self.declare_parameter(
+            "gap_reset_sec", 0.5,
+            float_descriptor("a gap in tail/state longer than this restarts the beat [s]",
+                             0.01, 60.0),
+        )  # fmt: skip
+        for name, (default, text, low, high) in GUARD_PARAMETERS.items():
+            self.declare_parameter(name, default, float_descriptor(text, low, high))
+        for name, (default, text, low, high) in _SWIMMING_PARAMETERS.items():
+            self.declare_parameter(name, default, float_descriptor(text, low, high))
+        self.tolerances = self._tolerances_from({})
+        self.swimming_parameters = self._swimming_parameters_from({})
+        self.tip_samples = TipSampleBuffer()
+        self.last_tip_kinematics: TipKinematics | None = None
+        self.tracker = BeatTracker(self.get_parameter("hysteresis_rad").value)
+        # Read on every tail/state message (1 kHz), so kept here rather than looked up each time.
+        self.gap_reset_sec = self.get_parameter("gap_reset_sec").value
+        self.guard = CarrierGuard()
+        self.guard.apply_parameters(
+            {
+                name: self.get_parameter(name).value
+                for name in (*GUARD_PARAMETERS, "stale_timeout_sec")
+            }
+        )
+        self.drops = DropCounts(GUARD_REASONS)
+        self._drop_log = {
+            reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
+        }
+        self.timing = StreamTiming()
+        self.frame_id = ""
+        self.last_beat: BeatStatistics | None = None
+        self.last_beat_reason = ""  # why the latest beat was not judged, if it was not
+        self.beats_not_judged = 0
+        self.last_verdict: tuple[Verdict, str, int] | None = None  # latest judged beat
+        self.last_sample_time_s: float | None = None
+        self.last_input_ns: int | None = None
+        self.last_progress_ns = self.get_clock().now().nanoseconds
+        self.commanded_speed = 0.0
+        self.last_command_ns: int | None = None
+        self.report = SymmetryReport()
+
+        # Transient local: a subscriber that joins late still gets the latest verdict.
+        self.report_publisher = self.create_publisher(
+            SymmetryReport,
+            "tail/symmetry",
+            QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+        )
+        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.create_subscription(TailState, "tail/state", self._on_state, qos_profile_sensor_data)
+        self.create_subscription(Float64, "motor/cmd_speed", self._on_command, 10)
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.get_logger().info("monitor up")
+
+    def _tolerances_from(self, changed: dict) -> SymmetryTolerances:
+        values = {
+            name: changed.get(name, self.get_parameter(name).value) for name in _TOLERANCE_NAMES
+        }
+        return SymmetryTolerances(**values)
+
+    def _swimming_parameters_from(self, changed: dict) -> SwimmingParameters:
+        return SwimmingParameters(
+            **{name: changed.get(name, self.get_parameter(name).value) for name in
+               _SWIMMING_PARAMETERS}
+        )  # fmt: skip
+
+    def _on_set_parameters(self, parameters) -> SetParametersResult:
+        changed = {p.name: p.value for p in parameters}
+        try:
+            tolerances = self._tolerances_from(changed)
+            swimming = self._swimming_parameters_from(changed)
+        except ValueError as error:
+            return SetParametersResult(successful=False, reason=str(error))
+        self.tolerances = tolerances
+        self.swimming_parameters = swimming
+        if "hysteresis_rad" in changed:
+            # Takes effect at the next arming; the beat count and the beat in progress stay.
+            self.tracker.hysteresis_rad = changed["hysteresis_rad"]
+        self.gap_reset_sec = changed.get("gap_reset_sec", self.gap_reset_sec)
+        self.guard.apply_parameters(changed)
+        return SetParametersResult(successful=True)
+
+    def _on_command(self, message: Float64) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        was_commanded = self._commanded(now_ns)
+        self.commanded_speed = message.data if math.isfinite(message.data) else 0.0
+        self.last_command_ns = now_ns
+        if not was_commanded:
+            self.last_progress_ns = now_ns
+
+    def _commanded(self, now_ns: int) -> bool:
+        # A command older than the stale timeout no longer counts: the driver's watchdog has
+        # stopped the motor by then.
+        if self.last_command_ns is None:
+            return False
+        age_s = (now_ns - self.last_command_ns) * 1e-9
+        return age_s < self.get_parameter("stale_timeout_sec").value and (
+            self.commanded_speed > _MIN_COMMANDED_SPEED_RAD_S
+        )
+
+    def _on_state(self, message: TailState) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        self.last_input_ns = now_ns
+        stamp = message.header.stamp
+        theta3 = message.theta3
+        tip_y = message.tip.y
+        tip_y_velocity = message.tip_velocity.y
+        fin_angle = (
+            message.theta5 if message.mechanism == TailState.MECHANISM_UNDULATORY else theta3
+        )
+        reason = self.guard.check(
+            stamp.sec * 1_000_000_000 + stamp.nanosec,
+            message.motor_angle,
+            theta3 + tip_y + tip_y_velocity + fin_angle,
+            now_ns,
+        )
+        if reason is not None:
+            self.drops.count(reason)
+            self.get_logger().warning(self._drop_log[reason], throttle_duration_sec=2.0)
+            return
+        time_s = stamp.sec + stamp.nanosec * 1e-9
+        gap = self.timing.observe(time_s)
+        if (
+            self.last_sample_time_s is not None
+            and time_s - self.last_sample_time_s > self.gap_reset_sec
+        ):
+            self.tracker.reset()
+            self.tip_samples.reset()
+        self.last_sample_time_s = time_s
+        self.frame_id = message.header.frame_id
+        self.tip_samples.add(time_s, tip_y, tip_y_velocity, fin_angle)
+        beat = self.tracker.add(time_s, theta3, message.motor_angle, gap)
+        if beat is not None:
+            kinematics = self.tip_samples.complete(beat)
+            self._publish_beat(beat, stamp, kinematics)
+
+    def _publish_beat(self, beat: BeatStatistics, stamp, kinematics: TipKinematics | None) -> None:
+        verdict, text = judge(beat, self.tolerances)
+        self.last_beat = beat
+        if verdict == Verdict.NOT_JUDGED:
+            self.beats_not_judged += 1
+            self.last_beat_reason = text
+        else:
+            self.last_beat_reason = ""
+            self.last_verdict = (verdict, text, beat.index)
+        # The swimming figures are over time, so a carrier angle that did not advance leaves them
+        # defined; over a hole in the data they would be as wrong as the symmetry.
+        self.last_tip_kinematics = None if beat.gap_s > 0.0 else kinematics
+        self.last_progress_ns = self.get_clock().now().nanoseconds
+        report = self.report
+        report.header.stamp = stamp
+        report.header.frame_id = self.frame_id
+        report.beat_index = beat.index
+        report.positive_peak = _finite(beat.positive_peak_rad)
+        report.negative_peak = _finite(beat.negative_peak_rad)
+        report.amplitude = _finite(beat.amplitude_rad)
+        report.mean_angle = _finite(beat.mean_angle_rad)
+        report.positive_time_share = _finite(beat.positive_time_share)
+        report.negative_time_share = _finite(beat.negative_time_share)
+        report.period = _finite(beat.period_s)
+        report.frequency = _finite(beat.frequency_hz)
+        report.verdict = int(verdict)
+        report.message = text
+        self.report_publisher.publish(report)
+        if verdict != Verdict.OK:
+            self.get_logger().warning(f"beat {beat.index}: {text}", throttle_duration_sec=5.0)
+
+    def _on_diagnostics(self) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        values = {
+            "beats": str(self.tracker.beats_completed),
+            "beats_not_judged": str(self.beats_not_judged),
+        }
+        stale_after = self.get_parameter("stale_timeout_sec").value
+        stale = self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after
+        commanded = self._commanded(now_ns)
+        if stale:
+            level, text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
+        elif commanded and self._beat_overdue(now_ns):
+            waited = (now_ns - self.last_progress_ns) * 1e-9
+            level, text = (
+                int(Verdict.ERROR),
+                f"motor commanded at {self.commanded_speed:.3g} rad/s but no tail beat completed "
+                f"in {waited:.1f} s",
+            )
+        else:
+            level, text = self._verdict_status()
+        if self.last_beat is not None:
+            beat = self.last_beat
+            values.update(
+                amplitude_deg=f"{math.degrees(beat.amplitude_rad):.3f}",
+                frequency_hz=f"{beat.frequency_hz:.4f}",
+            )
+            if math.isfinite(beat.mean_angle_rad + beat.positive_time_share):
+                values.update(
+                    mean_angle_deg=f"{math.degrees(beat.mean_angle_rad):.4f}",
+                    positive_time_share=f"{beat.positive_time_share:.5f}",
+                )
+        if self.last_tip_kinematics is not None:
+            swimming = figures_from_kinematics(self.last_tip_kinematics, self.swimming_parameters)
+            values.update(
+                tip_excursion_m=f"{swimming.tip_excursion_m:.5f}",
+                strouhal_number=f"{swimming.strouhal_number:.4f}",
+                lighthill_mean_thrust_n=f"{swimming.mean_thrust_n:.5g}",
+                assumed_forward_speed_m_s=f"{self.swimming_parameters.forward_speed_m_s:g}",
+            )
+        input_level, input_text, input_values = input_status(
+            INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
+        )
+        if stale:
+            input_level, input_text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
+        # The verdict last: a reader that keeps the latest status of this node keeps the verdict.
+        statuses = [
+            diagnostic_status(self, f"{INPUT_TOPIC} input", input_level, input_text, input_values),
+            diagnostic_status(self, "tail swing symmetry", level, text, values),
+        ]
+        self.diagnostics_publisher.publish(diagnostic_array_of(self, statuses))
+
+    def _verdict_status(self) -> tuple[int, str]:
+        """Level and message from the latest judged beat, saying if later beats were not judged.
+
+        A beat that was not judged says nothing about the linkage: the latest judged verdict
+        stands (the input status warns about the gaps). Before any beat could be judged, beats
+        that could not are a WARN.
+        """
+        latest = self.last_beat
+        if self.last_verdict is None:
+            if latest is None:
+                return int(Verdict.OK), "waiting for the first complete beat"
+            return int(Verdict.WARN), f"no beat judged yet; beat {latest.index}: " + (
+                self.last_beat_reason
+            )
+        verdict, text, index = self.last_verdict
+        if latest is not None and latest.index != index:
+            text = f"{text} (beat {index}; beat {latest.index} {self.last_beat_reason})"
+        return int(verdict), text
+
+    def _beat_overdue(self, now_ns: int) -> bool:
+        expected_period_s = 2.0 * math.pi / self.commanded_speed
+        allowed_s = max(self.get_parameter("beat_timeout_sec").value, 2.0 * expected_period_s)
+        return (now_ns - self.last_progress_ns) * 1e-9 > allowed_s
+
+
+def main() -> int:
+    """Entry point of ``ros2 run fishtail_kinematics monitor``."""
+    return run_node(MonitorNode, "monitor", (ValueError,))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

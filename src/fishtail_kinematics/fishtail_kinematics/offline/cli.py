@@ -1,0 +1,296 @@
+"""``fishtail-kinematics``: one cycle as CSV, the report's figures, an animation, a design summary.
+
+Geometry comes from a ROS 2 parameter file (``--config config/oscillatory.yaml``, the same file the
+nodes load) and/or flags named after the parameters (``--pivot-offset-m 0.18``); flags win. Bad
+input ends with a one-line error and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fishtail_kinematics.engine import design
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
+from fishtail_kinematics.engine.parameters import (
+    GEOMETRY_PARAMETERS,
+    MECHANISM_PARAMETER,
+    MECHANISMS,
+    geometry_from_parameters,
+    geometry_parameters_in,
+    load_parameter_file,
+    mechanism_of,
+)
+from fishtail_kinematics.offline import animation, plots
+
+PROGRAM = "fishtail-kinematics"
+REPORT_SPEED_RAD_S = 4.0
+
+OSCILLATORY_COLUMNS = (
+    "motor_angle_rad",
+    "OP",
+    "theta1",
+    "theta2",
+    "theta3",
+    "theta3_dot",
+    "Tx",
+    "Ty",
+)
+UNDULATORY_COLUMNS = (*OSCILLATORY_COLUMNS, "theta4", "AU", "AS", "theta5", "theta5_dot")
+_FIELD_OF_COLUMN = {
+    "motor_angle_rad": "motor_angle",
+    "OP": "slider_position",
+    "Tx": "tip_x",
+    "Ty": "tip_y",
+    "AU": "pin_u_distance",
+    "AS": "slider_a_distance",
+}
+
+
+class UsageError(Exception):
+    """Bad command-line input; reported as one line with exit status 2."""
+
+
+class OneLineErrorParser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (the usage text stays behind --help)."""
+
+    def error(self, message: str):
+        """Print ``prog: error: message`` and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 2 <= value <= 10_000_000:
+        raise argparse.ArgumentTypeError(f"must be between 2 and 10000000, got {value}")
+    return value
+
+
+def _speed(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(
+            f"carrier speed must be finite and >= 0 rad/s (the motor turns one way), got {text}"
+        )
+    return value
+
+
+def _frame_count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 2 <= value <= animation.MAX_FRAMES:
+        raise argparse.ArgumentTypeError(
+            f"must be between 2 and {animation.MAX_FRAMES}, got {value}"
+        )
+    return value
+
+
+def _frame_rate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and 0.0 < value <= animation.MAX_FPS):
+        raise argparse.ArgumentTypeError(
+            f"must be > 0 and <= {animation.MAX_FPS:g} frames/s (GIF delays are whole "
+            f"centiseconds), got {text}"
+        )
+    return value
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (exposed for tests and for the README's usage text)."""
+    geometry = OneLineErrorParser(add_help=False)
+    group = geometry.add_argument_group("geometry (SI units; flags override --config)")
+    group.add_argument(
+        "--config", type=Path, help="ROS 2 parameter file, e.g. config/oscillatory.yaml"
+    )
+    group.add_argument("--mechanism", choices=MECHANISMS)
+    for spec in GEOMETRY_PARAMETERS:
+        group.add_argument(
+            "--" + spec.name.replace("_", "-"),
+            dest=spec.name,
+            type=_number,
+            metavar=spec.unit.upper(),
+            help=f"{spec.symbol}: {spec.description} (default {spec.default:.6g})",
+        )
+    parser = OneLineErrorParser(prog=PROGRAM, description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    table = commands.add_parser("table", parents=[geometry], help="one cycle as CSV")
+    table.add_argument("--samples", type=_positive_int, default=36, help="angles k*2pi/N (36)")
+    table.add_argument("--speed", type=_speed, default=REPORT_SPEED_RAD_S, help="carrier rad/s (4)")
+    table.add_argument("--output", type=Path, help="write the CSV here instead of stdout")
+    plot = commands.add_parser("plot", parents=[geometry], help="the report's figures as PNG")
+    plot.add_argument("--samples", type=_positive_int, default=720)
+    plot.add_argument("--speed", type=_speed, default=REPORT_SPEED_RAD_S, help="carrier rad/s (4)")
+    plot.add_argument("--output-dir", type=Path, default=Path("figures"))
+    commands.add_parser("design", parents=[geometry], help="symmetric RS, range, assembly, mu")
+    animate = commands.add_parser(
+        "animate", parents=[geometry], help="one carrier revolution as an animated GIF"
+    )
+    animate.add_argument(
+        "--output", dest="gif_path", type=Path, default=Path("tail.gif"),
+        help="GIF file to write (tail.gif)",
+    )  # fmt: skip
+    animate.add_argument(
+        "--frames", type=_frame_count, default=72, help="frames per revolution (72)"
+    )
+    animate.add_argument("--fps", type=_frame_rate, default=24.0, help="frames per second (24)")
+    return parser
+
+
+def geometry_from_arguments(arguments: argparse.Namespace):
+    """Merge --config and flags into a validated geometry."""
+    values: dict[str, object] = {}
+    if arguments.config is not None:
+        values.update(geometry_parameters_in(load_parameter_file(arguments.config)))
+    if arguments.mechanism is not None:
+        values[MECHANISM_PARAMETER] = arguments.mechanism
+    for spec in GEOMETRY_PARAMETERS:
+        value = getattr(arguments, spec.name)
+        if value is not None:
+            values[spec.name] = value
+    return geometry_from_parameters(values)
+
+
+def _cycle(tail, samples: int, speed: float):
+    angles = np.arange(samples) * (2.0 * math.pi / samples)
+    return angles, tail.solve(angles, speed)
+
+
+def run_table(arguments: argparse.Namespace, out) -> None:
+    """Write one carrier cycle as CSV."""
+    tail = make_tail(geometry_from_arguments(arguments))
+    _, state = _cycle(tail, arguments.samples, arguments.speed)
+    columns = UNDULATORY_COLUMNS if isinstance(tail, UndulatoryTail) else OSCILLATORY_COLUMNS
+    data = [np.asarray(getattr(state, _FIELD_OF_COLUMN.get(c, c))) for c in columns]
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(columns)
+    for row in zip(*data, strict=True):
+        writer.writerow([f"{value:.12g}" for value in row])
+
+
+def run_plot(arguments: argparse.Namespace, out) -> None:
+    """Write the report's figures for this geometry."""
+    if arguments.speed <= 0.0:
+        raise UsageError("plot needs a positive --speed for its time axis")
+    geometry = geometry_from_arguments(arguments)
+    tail = make_tail(geometry)
+    angles, state = _cycle(tail, arguments.samples, arguments.speed)
+    time_s = plots.cycle_time(angles, arguments.speed)
+    title = f"{mechanism_of(geometry)}, {arguments.speed:g} rad/s"
+    directory = arguments.output_dir
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise UsageError(f"cannot create {directory}: {error.strerror}") from None
+    written = [
+        plots.plot_tail_angle(
+            time_s, state.theta3, state.theta3_dot, directory / "theta3.png", title
+        ),
+        plots.plot_tip_path(state.tip_x, state.tip_y, directory / "tip_path.png", title),
+    ]
+    drive_geometry = geometry.drive() if isinstance(tail, UndulatoryTail) else geometry
+    offsets = np.linspace(0.5 * geometry.pivot_offset_m, 1.6 * geometry.pivot_offset_m, 221)
+    written.append(
+        plots.plot_swing_range(
+            offsets,
+            design.swing_range_vs_pivot_offset(drive_geometry, offsets),
+            design.swing_range_vs_pivot_offset(drive_geometry, offsets, rederive_rocker=True),
+            geometry.pivot_offset_m,
+            directory / "swing_range.png",
+            title,
+        )
+    )
+    if isinstance(tail, UndulatoryTail):
+        fit = design.fit_fin_ratio(geometry)
+        written.append(
+            plots.plot_fin_angles(
+                time_s, state.theta3, state.theta5, fit.mu, directory / "theta3_theta5.png", title
+            )
+        )
+    for path in written:
+        print(path, file=out)
+
+
+def run_design(arguments: argparse.Namespace, out) -> None:
+    """Print the design figures of a geometry, one `name: value` a line."""
+    geometry = geometry_from_arguments(arguments)
+    summary = design.design_summary(geometry)
+    print(f"mechanism: {mechanism_of(geometry)}", file=out)
+    for name, value in summary.items():
+        text = f"{value:.9g}" if isinstance(value, float) else str(value)
+        print(f"{name}: {text}", file=out)
+
+
+def run_animate(arguments: argparse.Namespace, out) -> None:
+    """Write one carrier revolution as an animated GIF and print its path."""
+    path = arguments.gif_path
+    if path.suffix.lower() != ".gif":
+        raise UsageError(f"--output must name a .gif file, got {path}")
+    geometry = geometry_from_arguments(arguments)
+    make_tail(geometry)  # an infeasible geometry fails here, before any drawing
+    if not path.parent.is_dir():
+        raise UsageError(f"cannot write {path}: no directory {path.parent}")
+    try:
+        animation.animate_cycle(
+            geometry, path, arguments.frames, arguments.fps, f"{mechanism_of(geometry)} tail"
+        )
+    except OSError as error:
+        raise UsageError(f"cannot write {path}: {error.strerror or error}") from None
+    print(path, file=out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``fishtail-kinematics``."""
+    parser = build_parser()
+    arguments = parser.parse_args(argv)
+    command = {
+        "table": run_table,
+        "plot": run_plot,
+        "design": run_design,
+        "animate": run_animate,
+    }[arguments.command]
+    try:
+        if getattr(arguments, "output", None) is not None:
+            try:
+                with open(arguments.output, "w", encoding="utf-8", newline="") as out:
+                    command(arguments, out)
+            except OSError as error:
+                raise UsageError(f"cannot write {arguments.output}: {error.strerror}") from None
+        else:
+            command(arguments, sys.stdout)
+    except (FishtailKinematicsError, UsageError) as error:
+        print(f"{PROGRAM}: error: {error}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # `fishtail-kinematics table | head` is normal use, not an error.
+        sys.stderr.close()
+        return 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

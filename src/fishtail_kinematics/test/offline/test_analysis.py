@@ -1,0 +1,529 @@
+"""Offline analysis: bags written here with rosbags from engine-generated messages, and the CSV.
+
+The bags imitate the node suite: the driver's ``motor/joint_state`` at 200 Hz, the kinematics node's
+``tail/state`` solved per sample with the engine's scalar path (as the node does) and stamped like
+its input, the monitor's ``tail/symmetry``. The analysis recomputes them with the vectorised path,
+so the disagreement is rounding only. Damaged, truncated, empty and foreign inputs must end with a
+one-line error and exit status 2.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from rosbags.rosbag2 import Writer
+from rosbags.rosbag2.enums import StoragePlugin
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
+from fishtail_kinematics.engine.parameters import (
+    geometry_from_parameters,
+    geometry_parameters_in,
+    load_parameter_file,
+)
+from fishtail_kinematics.engine.symmetry import SymmetryTolerances, Verdict, beats_of, judge
+from fishtail_kinematics.offline import analyse_cli, analysis, cli
+
+ROOT = Path(__file__).resolve().parents[4]
+CONFIG = ROOT / "config"
+MSG_DIR = ROOT / "src" / "fishtail_msgs" / "msg"
+SPEED_RAD_S = 12.0
+RATE_HZ = 200.0
+T0_NS = 1_700_000_000_123_456_789
+STORAGES = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
+MECHANISM_CODE = {"oscillatory": 1, "undulatory": 2}
+
+
+@pytest.fixture(scope="module")
+def store():
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    definitions = {}
+    for path in sorted(MSG_DIR.glob("*.msg")):
+        definitions.update(get_types_from_msg(path.read_text(), f"fishtail_msgs/msg/{path.stem}"))
+    typestore.register(definitions)
+    return typestore
+
+
+def geometry_of(config: Path):
+    return geometry_from_parameters(geometry_parameters_in(load_parameter_file(config)))
+
+
+def header(store, stamp_ns: int, frame_id: str = ""):
+    types_ = store.types
+    stamp = types_["builtin_interfaces/msg/Time"](
+        sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000
+    )
+    return types_["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id)
+
+
+def tail_state(store, tail, stamp_ns: int, angle: float, velocity: float):
+    """A TailState as the kinematics node fills it (scalar engine path)."""
+    s = tail.solve(float(angle), float(velocity))
+    undulatory = isinstance(tail, UndulatoryTail)
+    nan = math.nan
+    point = store.types["geometry_msgs/msg/Point"]
+    vector = store.types["geometry_msgs/msg/Vector3"]
+    return store.types["fishtail_msgs/msg/TailState"](
+        header=header(store, stamp_ns, "tail_mechanism"),
+        mechanism=2 if undulatory else 1,
+        motor_angle=s.motor_angle, motor_velocity=s.motor_velocity,
+        slider_position=s.slider_position, slider_velocity=s.slider_velocity,
+        theta1=s.theta1, theta1_dot=s.theta1_dot, theta2=s.theta2, theta2_dot=s.theta2_dot,
+        theta3=s.theta3, theta3_dot=s.theta3_dot,
+        theta4=s.theta4 if undulatory else nan, theta4_dot=s.theta4_dot if undulatory else nan,
+        pin_u_distance=s.pin_u_distance if undulatory else nan,
+        pin_u_distance_rate=s.pin_u_distance_rate if undulatory else nan,
+        slider_a_distance=s.slider_a_distance if undulatory else nan,
+        slider_a_distance_rate=s.slider_a_distance_rate if undulatory else nan,
+        theta5=s.theta5 if undulatory else nan, theta5_dot=s.theta5_dot if undulatory else nan,
+        tip=point(x=s.tip_x, y=s.tip_y, z=0.0),
+        tip_velocity=vector(x=s.tip_x_dot, y=s.tip_y_dot, z=0.0),
+    )  # fmt: skip
+
+
+def write_bag(
+    store,
+    path: Path,
+    storage: str = "mcap",
+    config: Path = CONFIG / "oscillatory.yaml",
+    seconds: float = 2.0,
+    tail_state_topic: bool = True,
+    joint_state_topic: bool = True,
+    drop_joint_every: int = 0,
+    reports: int = 0,
+    namespace: str = "",
+) -> Path:
+    """A bag like a recording of the suite at constant speed (stamps = receive times + 50 us)."""
+    tail = make_tail(geometry_of(config))
+    samples = int(seconds * RATE_HZ)
+    with Writer(path, version=9, storage_plugin=STORAGES[storage]) as writer:
+        add = writer.add_connection
+        joints = add(
+            f"{namespace}/motor/joint_state", "sensor_msgs/msg/JointState", typestore=store
+        )
+        states = add(f"{namespace}/tail/state", "fishtail_msgs/msg/TailState", typestore=store)
+        report_connection = add(
+            f"{namespace}/tail/symmetry", "fishtail_msgs/msg/SymmetryReport", typestore=store
+        )
+        for k in range(samples):
+            stamp = T0_NS + round(k * 1e9 / RATE_HZ)
+            angle = 0.3 + SPEED_RAD_S * k / RATE_HZ
+            if joint_state_topic and not (drop_joint_every and k % drop_joint_every == 0):
+                message = store.types["sensor_msgs/msg/JointState"](
+                    header=header(store, stamp), name=["carrier_joint"],
+                    position=np.array([angle]), velocity=np.array([SPEED_RAD_S]),
+                    effort=np.array([], dtype=float),
+                )  # fmt: skip
+                data = store.serialize_cdr(message, "sensor_msgs/msg/JointState")
+                writer.write(joints, stamp + 50_000, data)
+            if tail_state_topic:
+                message = tail_state(store, tail, stamp, angle, SPEED_RAD_S)
+                data = store.serialize_cdr(message, "fishtail_msgs/msg/TailState")
+                writer.write(states, stamp + 80_000, data)
+        for index in range(reports):
+            message = store.types["fishtail_msgs/msg/SymmetryReport"](
+                header=header(store, T0_NS), beat_index=index, positive_peak=0.46,
+                negative_peak=-0.46, amplitude=0.46, mean_angle=0.0, positive_time_share=0.5,
+                negative_time_share=0.5, period=0.52, frequency=1.9, verdict=0, message="",
+            )  # fmt: skip
+            data = store.serialize_cdr(message, "fishtail_msgs/msg/SymmetryReport")
+            writer.write(report_connection, T0_NS + 1000 + index, data)
+    return path
+
+
+def run_cli(capsys, *argv) -> tuple[int, str, str]:
+    status = analyse_cli.main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+def skewed_config(tmp_path: Path) -> Path:
+    """The report geometry with the pivot moved and RS not re-derived: about 52.6 % on +side."""
+    document = yaml.safe_load((CONFIG / "oscillatory.yaml").read_text())
+    document["/**"]["ros__parameters"]["pivot_offset_m"] = 0.17
+    path = tmp_path / "skewed.yaml"
+    path.write_text(yaml.safe_dump(document))
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# Bags of our own
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+@pytest.mark.parametrize("mechanism", ["oscillatory", "undulatory"])
+def test_bag_agrees_with_engine_and_is_symmetric(store, tmp_path, capsys, storage, mechanism):
+    bag = write_bag(store, tmp_path / "bag", storage, CONFIG / f"{mechanism}.yaml", reports=3)
+    figures = tmp_path / "figures"
+    status, out, err = run_cli(capsys, bag, "--output-dir", figures)
+    assert status == 0, err
+    report = analysis.analyse(bag, output_dir=figures)
+    d = report.disagreement
+    assert d.samples == 400
+    assert d.worst < 1e-12, d.per_field
+    assert "motor_angle" in d.per_field and "tip_y_dot" in d.per_field
+    if mechanism == "undulatory":
+        assert "theta5_dot" in d.per_field
+    assert report.recording.mechanism == mechanism
+    assert "all 400 tail states matched by stamp" in out
+    assert f"mechanism: {mechanism}" in out
+    beats = report.beats
+    assert len(beats) >= 3
+    assert all(b.verdict == Verdict.OK for b in beats)
+    assert np.allclose(report.frequencies_hz, SPEED_RAD_S / (2 * math.pi), rtol=1e-3)
+    assert f"symmetry: {len(beats)} beats: {len(beats)} OK, 0 WARN, 0 ERROR" in out
+    assert "monitor (tail/symmetry in the recording): 3 beats, 3 OK" in out
+    names = {p.name for p in figures.iterdir()}
+    expected = {"theta3.png", "tip_path.png"}
+    if mechanism == "undulatory":
+        expected.add("theta3_theta5.png")
+    assert names == expected
+    assert all((figures / name).stat().st_size > 10_000 for name in names)
+
+
+def test_table_is_the_monitors_statistics(store, tmp_path):
+    """The analysis's beats are beats_of + judge on the stamps, theta3 and carrier angle."""
+    bag = write_bag(store, tmp_path / "bag", config=skewed_config(tmp_path))
+    report = analysis.analyse(bag, config=skewed_config(tmp_path), output_dir=tmp_path / "f")
+    recording = report.recording
+    expected = beats_of(
+        recording.stamp_s, recording.state["theta3"], carrier_rad=recording.carrier_angle
+    )
+    assert [j.beat for j in report.beats] == expected
+    tolerances = SymmetryTolerances()
+    assert [(j.verdict, j.reason) for j in report.beats] == [judge(b, tolerances) for b in expected]
+    assert all(j.verdict == Verdict.ERROR for j in report.beats)
+    assert report.disagreement.agrees
+
+
+def test_skewed_recording_against_default_geometry_disagrees(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", config=skewed_config(tmp_path))
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 1
+    assert "DISAGREES" in out and "--config" in out
+    status, out, _ = run_cli(
+        capsys, bag, "--config", skewed_config(tmp_path), "--output-dir", tmp_path / "f"
+    )
+    assert status == 0
+    assert "agrees" in out and "ERROR" in out and "time share off" in out
+
+
+def test_config_of_the_other_mechanism_is_refused(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag")
+    status, _, err = run_cli(capsys, bag, "--config", CONFIG / "undulatory.yaml")
+    assert status == 2
+    assert "oscillatory mechanism" in err and len(err.splitlines()) == 1
+
+
+def test_unmatched_samples_use_the_tail_states_own_carrier_angle(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", drop_joint_every=7)
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0
+    assert "motor/joint_state for 342 of 400 tail states matched by stamp" in out
+    assert "agrees" in out
+
+
+def test_bag_with_tail_state_only(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", joint_state_topic=False)
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0
+    assert "motor_angle of tail/state (no motor/joint_state recorded)" in out
+    assert "agrees" in out
+
+
+def test_bag_with_motor_joint_state_only(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", "sqlite3", tail_state_topic=False)
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0
+    assert "disagreement: n/a" in out
+    assert "0 WARN, 0 ERROR" in out
+
+
+def test_bag_with_two_suites_needs_a_namespace(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", namespace="/fish", seconds=1.0)
+    with Writer(tmp_path / "bag2", version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        from rosbags.rosbag2 import Reader
+
+        with Reader(bag) as reader:
+            added = {}
+            for connection, timestamp, raw in reader.messages():
+                for topic in (connection.topic, connection.topic.replace("/fish", "/shark")):
+                    if topic not in added:
+                        added[topic] = writer.add_connection(
+                            topic, connection.msgtype, typestore=store
+                        )
+                    writer.write(added[topic], timestamp, raw)
+    expect_clean_error(capsys, tmp_path / "bag2", "/fish/tail/state, /shark/tail/state")
+    status, out, _ = run_cli(capsys, tmp_path / "bag2", "--namespace", "shark", "--output-dir",
+                             tmp_path / "f")  # fmt: skip
+    assert status == 0 and "all 200 tail states matched" in out
+    expect_clean_error(
+        capsys, tmp_path / "bag2", "in namespace 'whale'", options=("--namespace", "whale")
+    )
+
+
+def test_storage_file_given_directly(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag")
+    status, out, _ = run_cli(capsys, bag / "bag.mcap", "--output-dir", tmp_path / "f")
+    assert status == 0 and "agrees" in out
+
+
+def test_split_bag_with_more_files_than_the_open_file_limit(store, tmp_path):
+    """fishtail-record writes one file per segment; rosbags opens them all at once."""
+    whole = write_bag(store, tmp_path / "whole", seconds=2.0)
+    bag = tmp_path / "split"
+    bag.mkdir()
+    from rosbags.rosbag2 import Reader
+
+    with Reader(whole) as reader:
+        connections = list(reader.connections)
+        messages = list(reader.messages())
+    names = []
+    for segment in range(40):
+        name = f"split_{segment}"
+        with Writer(bag / name, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+            added = {
+                c.topic: writer.add_connection(c.topic, c.msgtype, typestore=store)
+                for c in connections
+            }
+            for connection, timestamp, raw in messages[segment::40]:
+                writer.write(added[connection.topic], timestamp, raw)
+        (bag / name / f"{name}.mcap").rename(bag / f"{name}.mcap")
+        shutil.rmtree(bag / name)
+        names.append(f"{name}.mcap")
+    metadata = yaml.safe_load((whole / "metadata.yaml").read_text())
+    information = metadata["rosbag2_bagfile_information"]
+    information["relative_file_paths"] = names
+    information["files"] = []
+    (bag / "metadata.yaml").write_text(yaml.safe_dump(metadata))
+    script = (
+        "import resource, sys\n"
+        "soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)\n"
+        "resource.setrlimit(resource.RLIMIT_NOFILE, (32, hard))\n"
+        "from rosbags.rosbag2 import Reader\n"
+        "try:\n"
+        "    Reader(sys.argv[1]).open()\n"
+        "except Exception as error:\n"  # rosbags' ReaderError
+        "    print('premise:', error)\n"
+        "from fishtail_kinematics.offline.analyse_cli import main\n"
+        "sys.exit(main([sys.argv[1], '--output-dir', sys.argv[2]]))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script, str(bag), str(tmp_path / "f")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert "premise:" in result.stdout and "Too many open files" in result.stdout
+    assert result.returncode == 0, result.stderr
+    assert "40 file(s)" in result.stdout and "agrees" in result.stdout
+
+
+def test_gap_restarts_the_beat():
+    time_s = np.arange(0.0, 4.0, 0.005)
+    theta3 = 0.4 * np.sin(2 * math.pi * (time_s - 0.05))
+    keep = (time_s < 1.7) | (time_s > 2.4)  # a 0.7 s hole
+    beats = analysis.beat_table(time_s[keep], theta3[keep], SymmetryTolerances())
+    assert [j.beat.index for j in beats] == list(range(len(beats)))
+    assert all(abs(j.beat.period_s - 1.0) < 1e-9 for j in beats)
+    assert all(j.beat.end_s < 1.7 or j.beat.start_s > 2.4 for j in beats)
+
+
+# --------------------------------------------------------------------------------------------
+# The CLI's CSV
+
+
+@pytest.mark.parametrize("mechanism", ["oscillatory", "undulatory"])
+def test_csv_of_the_cli(tmp_path, capsys, mechanism):
+    table = tmp_path / "cycle.csv"
+    assert cli.main(["table", "--mechanism", mechanism, "--samples", "720", "--output",
+                     str(table)]) == 0  # fmt: skip
+    status, out, err = run_cli(capsys, table, "--output-dir", tmp_path / "f")
+    assert status == 0, err
+    assert "carrier speed 4 rad/s" in out
+    report = analysis.analyse(table, output_dir=tmp_path / "f")
+    assert report.disagreement.worst < 1e-9
+    assert len(report.beats) == 1 and report.beats[0].verdict == Verdict.OK
+    assert report.frequencies_hz[0] == pytest.approx(4.0 / (2 * math.pi), rel=1e-9)
+    assert len(report.figures) == (3 if mechanism == "undulatory" else 2)
+
+
+# --------------------------------------------------------------------------------------------
+# Inputs that cannot be analysed: one line, status 2, no traceback
+
+
+def expect_clean_error(capsys, path, *words, tmp_path=None, options=()):
+    argv = [path, *options] + ([] if tmp_path is None else ["--output-dir", tmp_path / "f"])
+    status, out, err = run_cli(capsys, *argv)
+    assert status == 2, (out, err)
+    assert out == ""
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("fishtail-analyse: error: ")
+    assert "Traceback" not in err
+    for word in words:
+        assert word in err, err
+    return err
+
+
+def test_missing_path(capsys, tmp_path):
+    expect_clean_error(capsys, tmp_path / "nope", "no such file")
+
+
+def test_directory_without_metadata(capsys, tmp_path):
+    (tmp_path / "empty").mkdir()
+    expect_clean_error(capsys, tmp_path / "empty", "not a readable rosbag2 bag")
+
+
+def test_garbage_metadata(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=0.2)
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: [1, 2\n")
+    expect_clean_error(capsys, bag, "not a readable rosbag2 bag")
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_truncated_storage_file(store, tmp_path, capsys, storage):
+    bag = write_bag(store, tmp_path / "bag", storage, seconds=0.5)
+    (file,) = [p for p in bag.iterdir() if p.suffix in (".mcap", ".db3")]
+    data = file.read_bytes()
+    file.write_bytes(data[: len(data) // 2])
+    expect_clean_error(capsys, bag, "not a readable rosbag2 bag", tmp_path=tmp_path)
+
+
+def test_damaged_chunk(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=0.5)
+    file = bag / "bag.mcap"
+    data = bytearray(file.read_bytes())
+    middle = len(data) // 3
+    data[middle : middle + 64] = b"\xff" * 64
+    file.write_bytes(bytes(data))
+    expect_clean_error(capsys, bag, "not a readable rosbag2 bag", tmp_path=tmp_path)
+
+
+def test_storage_file_missing(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=0.2)
+    (bag / "bag.mcap").unlink()
+    expect_clean_error(capsys, bag, "missing")
+
+
+def test_foreign_bag(store, tmp_path, capsys):
+    with Writer(tmp_path / "bag", version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        chatter = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        message = store.types["std_msgs/msg/String"](data="hello")
+        writer.write(chatter, T0_NS, store.serialize_cdr(message, "std_msgs/msg/String"))
+    expect_clean_error(capsys, tmp_path / "bag", "not a fishtail recording", "/chatter")
+
+
+def test_empty_bag(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=0.0)
+    expect_clean_error(capsys, bag, "no tail/state or motor/joint_state message")
+
+
+def test_junk_file(tmp_path, capsys):
+    junk = tmp_path / "junk.bin"
+    junk.write_bytes(bytes(range(256)) * 4)
+    expect_clean_error(capsys, junk, "junk.bin")
+
+
+def test_mcap_file_that_is_junk(tmp_path, capsys):
+    junk = tmp_path / "x.mcap"
+    junk.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 10)
+    expect_clean_error(capsys, junk, "not a readable rosbag2 bag")
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("", ["empty"]),
+        ("a,b\n1,2\n", ["missing column"]),
+        ("motor_angle_rad,theta3,theta3_dot,Tx,Ty\n0,1,2,3,x\n1,1,2,3,4\n", ["not a number"]),
+        ("motor_angle_rad,theta3,theta3_dot,Tx,Ty\n0,1,2,3,4\n", ["at least 2 data rows"]),
+        ("motor_angle_rad,theta3,theta3_dot,Tx,Ty\n0,1,2,3\n1,1,2,3,4\n", ["fields"]),
+        ("motor_angle_rad,theta3,theta3_dot,Tx,Ty\n1,1,2,3,4\n0,1,2,3,4\n", ["increasing"]),
+    ],
+    ids=["empty", "columns", "number", "rows", "ragged", "order"],
+)
+def test_bad_csv(tmp_path, capsys, text, words):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    expect_clean_error(capsys, path, *words)
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf"])
+def test_csv_with_a_non_finite_value_is_bad_input(tmp_path, capsys, bad):
+    # A table of the CLI with one theta3 replaced: a one-line error naming the line and the
+    # column, status 2 and no figures (not a "disagreement" with figures of a broken table).
+    table = tmp_path / "cycle.csv"
+    assert cli.main(["table", "--samples", "36", "--output", str(table)]) == 0
+    lines = table.read_text().splitlines()
+    header = lines[0].split(",")
+    row = lines[5].split(",")
+    row[header.index("theta3")] = bad
+    lines[5] = ",".join(row)
+    table.write_text("\n".join(lines) + "\n")
+    expect_clean_error(
+        capsys, table, "line 6, column theta3", f"not a finite number: '{bad}'", tmp_path=tmp_path
+    )
+    assert not (tmp_path / "f").exists()
+
+
+def test_unwritable_output_dir(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=0.6)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    status, _, err = run_cli(capsys, bag, "--output-dir", blocker / "sub")
+    assert status == 2 and err.startswith("fishtail-analyse: error: cannot create")
+
+
+# --------------------------------------------------------------------------------------------
+# Purity and the swimming hook
+
+
+def test_analysis_does_not_import_rclpy():
+    code = "import sys, fishtail_kinematics.offline.analysis; print('rclpy' in sys.modules)"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "False"
+
+
+def test_swimming_hook_prints_the_figures_when_the_module_exists(
+    store, tmp_path, capsys, monkeypatch
+):
+    calls = []
+
+    def swimming_figures(time_s, tip_y, tip_y_velocity, fin_angle, parameters):
+        calls.append((len(time_s), len(tip_y), len(tip_y_velocity), len(fin_angle), parameters))
+        return "St = 0.3 (fake)"
+
+    fake = types.ModuleType("fishtail_kinematics.engine.swimming")
+    fake.swimming_figures = swimming_figures
+    monkeypatch.setitem(sys.modules, "fishtail_kinematics.engine.swimming", fake)
+    bag = write_bag(store, tmp_path / "bag", seconds=1.0)
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f", "--fin-span-m", "0.2")
+    assert status == 0
+    assert "swimming (U = 0.3 m/s, fin span 0.2 m, rho = 1000 kg/m^3): St = 0.3 (fake)" in out
+    assert calls[0][:4] == (200, 200, 200, 200)
+    assert calls[0][4] == {"forward_speed_m_s": 0.3, "fin_span_m": 0.2, "water_density_kg_m3": 1e3}
+
+
+def test_no_swimming_section_without_the_module(store, tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "fishtail_kinematics.engine.swimming", None)  # import fails
+    bag = write_bag(store, tmp_path / "bag", seconds=1.0)
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0 and "swimming (" not in out
+
+
+def test_default_output_dir_is_named_after_the_input(store, tmp_path, capsys, monkeypatch):
+    write_bag(store, tmp_path / "run1", seconds=0.6)
+    monkeypatch.chdir(tmp_path)
+    status, out, _ = run_cli(capsys, "run1")
+    assert status == 0
+    assert (tmp_path / "run1_figures" / "theta3.png").is_file()
+    shutil.rmtree(tmp_path / "run1_figures")
