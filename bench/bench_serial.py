@@ -29,7 +29,8 @@ from pathlib import Path
 import serial
 
 from fishtail_driver.protocol import LineFramer, encode_motor_speeds, encode_read_encoders
-from fishtail_driver.serial_backend import SerialBackend, SerialConfig
+from fishtail_driver.serial_backend import SerialBackend
+from fishtail_driver.serial_config import SerialConfig
 
 BAUDS = ((57600, 100.0), (1_000_000, 500.0))
 ROUND_TRIP_S = 1.5

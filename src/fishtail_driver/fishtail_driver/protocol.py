@@ -25,9 +25,9 @@ more than 2000 ms.
 
 This module encodes commands, splits the byte stream into reply lines (:class:`LineFramer`),
 parses replies (raising :class:`ReplyError` with a machine-readable ``kind`` and a precise
-``reason`` for anything malformed), converts carrier speeds to ticks per PID frame
-(:class:`Scale`) and turns the board's wrapping, resettable counter into a continuous count
-(:class:`CountUnwrapper`).
+``reason`` for anything malformed) and converts carrier speeds to ticks per PID frame
+(:class:`Scale`). Turning the board's wrapping, resettable counter into a continuous angle is
+:mod:`fishtail_driver.encoder_tracking`'s job.
 
 >>> encode_motor_speeds(68, 0)
 b'm 68 0\r'
@@ -436,72 +436,3 @@ class Scale:
     def counts_from_angle(self, angle_rad: float) -> float:
         """Carrier angle [rad] -> encoder counts (unrounded)."""
         return angle_rad / self.rad_per_count
-
-
-# --------------------------------------------------------------------------------------------
-# Unwrapping
-
-
-@dataclasses.dataclass(frozen=True)
-class UnwrapStep:
-    """What :meth:`CountUnwrapper.update` did with one raw count.
-
-    ``event`` is "first" (first sample or first after :meth:`CountUnwrapper.rebase`: the
-    continuous count is held), "move" (normal step), "wrap" (a step across the 32-bit wrap) or
-    "jump" (a step larger than ``max_step``: treated as a discontinuity, the continuous count is
-    held).
-    """
-
-    total: int
-    delta: int
-    event: str
-
-
-class CountUnwrapper:
-    """Continuous count from the board's signed 32-bit counter, held across discontinuities.
-
-    Steps are taken modulo 2**32 (the shortest way round), so crossing the wrap from 2**31 - 1 to
-    -2**31 is a step of +1. A step larger than ``max_step`` (when given) is treated as a
-    discontinuity (board reset, encoders reset by someone else, corrupt reading that still
-    parsed): the continuous count stays where it was and counting continues from the new raw
-    value. :meth:`rebase` forces the same for the next sample (e.g. after a reconnect).
-
-    >>> unwrapper = CountUnwrapper()
-    >>> raws = (2147483600, 2147483647, -2147483600, 10)
-    >>> [unwrapper.update(raw, max_step=1000).event for raw in raws]
-    ['first', 'move', 'wrap', 'jump']
-    >>> unwrapper.total
-    96
-    """
-
-    def __init__(self) -> None:
-        """Start with no reference: the first sample defines count 0."""
-        self.total = 0
-        self.last_raw: int | None = None
-        self.wraps = 0
-        self.jumps = 0
-
-    def rebase(self) -> None:
-        """Make the next sample a new reference (the continuous count is held)."""
-        self.last_raw = None
-
-    def delta_to(self, raw: int) -> int | None:
-        """The (wrapped) step from the last raw reading to ``raw``; None without a reference."""
-        return None if self.last_raw is None else wrap_int32(raw - self.last_raw)
-
-    def update(self, raw: int, max_step: int | None = None) -> UnwrapStep:
-        """Account for one raw reading; returns the new continuous count and what happened."""
-        if self.last_raw is None:
-            self.last_raw = raw
-            return UnwrapStep(self.total, 0, "first")
-        plain = raw - self.last_raw
-        delta = wrap_int32(plain)
-        self.last_raw = raw
-        if max_step is not None and abs(delta) > max_step:
-            self.jumps += 1
-            return UnwrapStep(self.total, delta, "jump")
-        self.total += delta
-        if delta != plain:
-            self.wraps += 1
-            return UnwrapStep(self.total, delta, "wrap")
-        return UnwrapStep(self.total, delta, "move")

@@ -35,7 +35,8 @@ from pathlib import Path
 import pytest
 
 from fishtail_driver.fake_board import BoardConfig, FakeBoard
-from fishtail_driver.serial_backend import SerialBackend, SerialConfig
+from fishtail_driver.serial_backend import SerialBackend
+from fishtail_driver.serial_config import SerialConfig
 
 POLL_S = 0.005
 #: Discovery takes 0.3-2.5 s on this kind of machine; waits for it get a wide margin.

@@ -1,4 +1,4 @@
-"""The ROSArduinoBridge codec: encoding, framing, parsing (unit + fuzzing), units, unwrapping."""
+"""The ROSArduinoBridge codec: encoding, framing, parsing (unit + fuzzing), units."""
 
 from __future__ import annotations
 
@@ -17,7 +17,6 @@ from fishtail_driver.protocol import (
     INT32_MAX,
     INT32_MIN,
     REPLY_ERROR_KINDS,
-    CountUnwrapper,
     LineFramer,
     OversizedLine,
     ReplyError,
@@ -283,37 +282,3 @@ def test_wrap_helpers():
     assert wrap_int16(40000) == -25536
     assert atoi16(b"40000") == -25536
     assert atoi16(b"1.9") == 1 and atoi16(b"junk") == 0 and atoi16(b"\n-12x") == -12
-
-
-def test_unwrap_across_the_32_bit_wrap_both_ways():
-    """Crossing INT32_MAX -> INT32_MIN is one step forward, and back again one step back."""
-    unwrapper = CountUnwrapper()
-    unwrapper.update(INT32_MAX - 1)
-    assert unwrapper.update(INT32_MIN + 1).total == 3
-    assert unwrapper.update(INT32_MAX).total == 1
-    assert unwrapper.wraps == 2
-
-
-def test_unwrap_holds_across_a_reset():
-    """A jump larger than max_step (counts back to 0) keeps the continuous count."""
-    unwrapper = CountUnwrapper()
-    for raw in (100000, 100500, 101000):
-        unwrapper.update(raw, max_step=1000)
-    step = unwrapper.update(3, max_step=1000)
-    assert step.event == "jump" and step.total == 1000
-    assert unwrapper.update(503, max_step=1000).total == 1500
-    unwrapper.rebase()
-    assert unwrapper.update(-7).event == "first" and unwrapper.total == 1500
-    assert unwrapper.delta_to(-5) == 2
-
-
-@given(st.integers(INT32_MIN, INT32_MAX), st.lists(st.integers(-5000, 5000), max_size=60))
-def test_unwrap_recovers_the_true_motion(start, steps):
-    """For steps smaller than half the counter range, unwrapping is exact."""
-    unwrapper = CountUnwrapper()
-    true_count = start
-    unwrapper.update(wrap_int32(true_count), max_step=6000)
-    for step in steps:
-        true_count += step
-        assert unwrapper.update(wrap_int32(true_count), max_step=6000).event != "jump"
-    assert unwrapper.total == true_count - start

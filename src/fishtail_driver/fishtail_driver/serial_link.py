@@ -1,0 +1,466 @@
+"""One serial port to a ROSArduinoBridge board: open, write, read lines, exchange, keep in step.
+
+Used by the serial backend's I/O thread only (nothing here is thread-safe except
+:class:`StatusCounters`). A failure that makes the port unusable raises :class:`LinkLostError`
+(the backend closes it and reconnects); a failed exchange (no reply, a partial, oversized or
+malformed one) is counted, the line is resynchronised (:meth:`SerialLink.fence`) and the exchange
+returns :class:`Failed`.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import os
+import threading
+import time
+from collections.abc import Callable
+from typing import Generic, TypeVar
+
+import serial
+
+from fishtail_driver.protocol import (
+    LineFramer,
+    OversizedLine,
+    ReplyError,
+    encode_get_baud,
+    encode_read_encoders,
+    parse_baud,
+    parse_encoders,
+)
+from fishtail_driver.serial_config import SerialConfig
+
+T = TypeVar("T")
+
+#: Opens a port: pyserial's ``serial_for_url`` (tests inject doubles).
+PortOpener = Callable[..., serial.Serial]
+
+
+class LinkLostError(Exception):
+    """The port is unusable; the backend closes it and reconnects."""
+
+
+class ReadTimeoutError(Exception):
+    """No whole line arrived before the deadline; ``partial`` holds what did."""
+
+    def __init__(self, partial: bytes) -> None:
+        """Keep the bytes of the incomplete line."""
+        super().__init__(partial)
+        self.partial = partial
+
+
+@dataclasses.dataclass(frozen=True)
+class Answered(Generic[T]):
+    """An exchange that got its reply."""
+
+    value: T
+    #: When the request's last byte reached the board (monotonic s): when it acted on it.
+    request_arrived_s: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Failed:
+    """An exchange that failed transiently (counted under ``kind``; the line is back in step)."""
+
+    kind: str
+    reason: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Handshake:
+    """What a board that answers in step said when the port opened."""
+
+    #: Its ``b`` reply; None for a firmware without ``b`` (it answered Invalid Command).
+    board_baud: int | None
+    #: The last of the verifying ``e`` readings, and when the board took it.
+    pair: tuple[int, int]
+    read_s: float
+
+
+class StatusCounters:
+    """Named counters and the latest fault (kind, reason, time), shared across threads."""
+
+    def __init__(self, clock: Callable[[], float]) -> None:
+        """No counts, no fault."""
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._counts: collections.Counter[str] = collections.Counter()
+        self._last_fault: tuple[str, str, float] | None = None
+
+    def count(self, *names: str, amount: int = 1) -> None:
+        """Add ``amount`` to each counter of ``names``, together."""
+        with self._lock:
+            for name in names:
+                self._counts[name] += amount
+
+    def set(self, name: str, value: int) -> None:
+        """Set counter ``name``."""
+        with self._lock:
+            self._counts[name] = value
+
+    def note(self, kind: str, reason: str) -> None:
+        """Make this the latest fault, without counting it."""
+        with self._lock:
+            self._last_fault = (kind, reason, self._clock())
+
+    def fault(self, kind: str, reason: str) -> None:
+        """Count a fault under ``kind`` and make it the latest."""
+        with self._lock:
+            self._counts[kind] += 1
+            self._last_fault = (kind, reason, self._clock())
+
+    def __getitem__(self, name: str) -> int:
+        """Counter ``name`` (0 if never counted)."""
+        with self._lock:
+            return self._counts[name]
+
+    @property
+    def last_fault(self) -> tuple[str, str, float] | None:
+        """(kind, reason, time) of the latest fault, or None."""
+        with self._lock:
+            return self._last_fault
+
+    def snapshot(self) -> tuple[dict[str, int], tuple[str, str, float] | None]:
+        """Every counter and the latest fault, taken together."""
+        with self._lock:
+            return dict(self._counts), self._last_fault
+
+
+class SerialLink:
+    """The port, its line framing and the request/reply discipline; see the module docstring."""
+
+    def __init__(
+        self,
+        config: SerialConfig,
+        counters: StatusCounters,
+        closing: threading.Event,
+        clock: Callable[[], float] = time.monotonic,
+        opener: PortOpener | None = None,
+    ) -> None:
+        """Nothing is opened until :meth:`open`; ``closing`` makes waits give up early."""
+        self.config = config
+        self.counters = counters
+        self._closing = closing
+        self._clock = clock
+        self._opener: PortOpener = opener or serial.serial_for_url
+        self._port: serial.Serial | None = None
+        self._rdev: int | None = None
+        self._framer = LineFramer(config.max_line_bytes)
+        self._lines: collections.deque[bytes | OversizedLine] = collections.deque()
+        #: The board's ``b`` reply at the last handshake (None: not known, or no ``b``).
+        self.board_baud: int | None = None
+        #: When the last valid reply arrived (monotonic s).
+        self.last_good_s = -float("inf")
+
+    # --- the port --------------------------------------------------------------------------
+
+    def open(self) -> None:
+        """Open the port (exclusively, for a device path); LinkLostError naming the cause."""
+        config = self.config
+        if not config.is_url and not os.path.exists(config.port):
+            self.counters.count("port_missing")
+            raise LinkLostError(f"port {config.port} does not exist (board unplugged?)")
+        try:
+            self._port = self._opener(
+                config.port,
+                baudrate=config.baud,
+                timeout=min(config.read_timeout_s, 0.02),
+                write_timeout=config.read_timeout_s,
+                exclusive=None if config.is_url else True,
+            )
+        except (serial.SerialException, OSError, ValueError) as error:
+            self.counters.count("open_failures")
+            raise LinkLostError(f"cannot open {config.port}: {error}") from None
+        try:
+            self._rdev = os.fstat(self._port.fileno()).st_rdev
+        except Exception:  # URLs and test doubles have no device number
+            self._rdev = None
+
+    def close(self) -> None:
+        """Close the port (if open) and forget buffered input; never raises."""
+        port, self._port = self._port, None
+        self._rdev = None
+        self._framer.clear()
+        self._lines.clear()
+        if port is not None:
+            try:
+                port.close()
+            except Exception:  # closing a dead port may fail; nothing to do
+                pass
+
+    def cancel_read(self) -> None:
+        """Wake a read blocked in the port (from another thread, when closing); best effort."""
+        port = self._port
+        if port is not None:
+            try:
+                port.cancel_read()
+            except Exception:  # best effort
+                pass
+
+    def check_path(self) -> None:
+        """LinkLostError when the device path vanished or now points to another device."""
+        config = self.config
+        if config.is_url:
+            return
+        try:
+            rdev = os.stat(config.port).st_rdev
+        except OSError:
+            raise LinkLostError(f"{config.port} vanished (unplugged?)") from None
+        if self._rdev is not None and rdev != self._rdev:
+            raise LinkLostError(f"{config.port} now points to another device (replugged?)")
+
+    def _open_port(self) -> serial.Serial:
+        if self._port is None:
+            raise LinkLostError("port closed")
+        return self._port
+
+    # --- line I/O --------------------------------------------------------------------------
+
+    def request_s(self, payload: bytes) -> float:
+        """Line time of a request: from its write until its CR reaches the board [s]."""
+        return len(payload) * self.config.byte_s
+
+    def write(self, payload: bytes) -> None:
+        """Send bytes; LinkLostError if the port fails or the write times out."""
+        port = self._open_port()
+        try:
+            port.write(payload)
+        except serial.SerialTimeoutException:
+            self.counters.count("write_timeouts")
+            raise LinkLostError(f"write to {self.config.port} timed out") from None
+        except (serial.SerialException, OSError) as error:
+            raise LinkLostError(f"write to {self.config.port} failed: {error}") from None
+
+    def read_line(self, deadline: float) -> bytes | OversizedLine:
+        """The next reply line; ReadTimeoutError at ``deadline``, LinkLostError if the port dies."""
+        port = self._open_port()
+        while True:
+            if self._lines:
+                return self._lines.popleft()
+            if self._clock() >= deadline:
+                raise ReadTimeoutError(self._framer.pending)
+            try:
+                waiting = port.in_waiting
+                data = port.read(max(1, min(waiting, 4096)))
+            except (serial.SerialException, OSError) as error:
+                raise LinkLostError(f"read from {self.config.port} failed: {error}") from None
+            if data:
+                self._lines.extend(self._framer.feed(data))
+
+    def resync(
+        self, quiet: bool, quiet_s: float | None = None, limit_s: float | None = None
+    ) -> bool:
+        """Drop buffered input; with ``quiet``, also wait until the line stays silent a moment.
+
+        The silence lasts ``quiet_s`` (default: 30 byte times, at least 5 ms); the wait is bounded
+        by ``limit_s`` (default: the read timeout). Returns whether any bytes arrived meanwhile.
+        """
+        port = self._open_port()
+        noise = bool(self._framer.pending) or bool(self._lines)
+        self._framer.clear()
+        self._lines.clear()
+        try:
+            noise = bool(port.in_waiting) or noise
+            port.reset_input_buffer()
+            if not quiet:
+                return noise
+            if quiet_s is None:
+                quiet_s = max(0.005, 30 * self.config.byte_s)
+            end = self._clock() + (self.config.read_timeout_s if limit_s is None else limit_s)
+            last = self._clock()
+            while self._clock() < end and self._clock() - last < quiet_s:
+                if port.in_waiting:
+                    port.reset_input_buffer()
+                    last = self._clock()
+                    noise = True
+                else:
+                    time.sleep(0.001)
+        except (serial.SerialException, OSError) as error:
+            raise LinkLostError(f"{self.config.port} failed: {error}") from None
+        return noise
+
+    def drop_input(self) -> int:
+        """Discard all buffered input; returns how many reply lines (whole or begun) it held."""
+        port = self._open_port()
+        try:
+            waiting = port.in_waiting
+            data = port.read(waiting) if waiting else b""
+        except (serial.SerialException, OSError) as error:
+            raise LinkLostError(f"{self.config.port} failed: {error}") from None
+        lines = len(self._lines) + len(self._framer.feed(data)) + bool(self._framer.pending)
+        self._framer.clear()
+        self._lines.clear()
+        return lines
+
+    # --- exchanges -------------------------------------------------------------------------
+
+    def exchange(self, payload: bytes, parse: Callable[[bytes], T]) -> Answered[T] | Failed:
+        """Send one request and parse its reply; a transient fault is counted and fenced off."""
+        sent = self._clock()
+        self.write(payload)
+        timeout_s = self.config.read_timeout_s
+        try:
+            line = self.read_line(self._clock() + timeout_s)
+        except ReadTimeoutError as timeout:
+            command = payload.rstrip(b"\r").decode("ascii")
+            if timeout.partial:
+                failed = Failed(
+                    "partial_replies",
+                    f"only {timeout.partial[:40]!r} (no line end) within {timeout_s:g} s "
+                    f"after {command!r}",
+                )
+            else:
+                failed = Failed("timeouts", f"no reply to {command!r} within {timeout_s:g} s")
+            return self._failed(failed)
+        if isinstance(line, OversizedLine):
+            reason = f"a {line.length}-byte line (starting {line.head!r}) was discarded"
+            return self._failed(Failed("oversized", reason))
+        try:
+            value = parse(line)
+        except ReplyError as error:
+            return self._failed(Failed(error.kind, error.reason))
+        self.last_good_s = self._clock()
+        return Answered(value, sent + self.request_s(payload))
+
+    def _failed(self, failed: Failed) -> Failed:
+        self.counters.fault(failed.kind, failed.reason)
+        self.fence()
+        return failed
+
+    def _is_fence_reply(self, line: bytes | OversizedLine) -> bool:
+        if isinstance(line, OversizedLine):
+            return False
+        try:
+            parse_baud(line)
+            return True
+        except ReplyError as error:
+            # A firmware without 'b' (handshake answered Invalid Command) answers the fence so.
+            return error.kind == "invalid_command" and self.board_baud is None
+
+    def fence(self) -> None:
+        """Get back in step after a failed exchange: no late reply may pass for a later one's.
+
+        The protocol has no request tags, and a board may answer after the read timeout: sent at
+        once, the next request would take that late reply for its own (an old reading with a
+        current stamp). So: drop the input, send ``b`` and discard every line until a reply to
+        ``b`` arrives. The board answers in order, so by then every earlier request has been
+        answered or lost, and the next reply answers the next request. A ``b`` reply never
+        passes for an encoder reading or an ``OK``, so a fence answered late (and taken for a
+        later fence) does no harm either. Discarded lines are counted (``discarded_replies``).
+        Fence replies do not count as valid replies: a board that answers only late is declared
+        lost after ``stale_timeout_s``. When closing, one attempt only.
+        """
+        config = self.config
+        self.counters.count("resyncs")
+        while True:
+            discarded = self.drop_input()
+            self.write(encode_get_baud())
+            deadline = self._clock() + config.read_timeout_s
+            in_step = False
+            while not in_step:
+                try:
+                    line = self.read_line(deadline)
+                except ReadTimeoutError:
+                    break
+                in_step = self._is_fence_reply(line)
+                discarded += not in_step
+            self.counters.count("discarded_replies", amount=discarded)
+            silent_s = self._clock() - self.last_good_s
+            if in_step or self._closing.is_set():
+                return
+            if silent_s > config.stale_timeout_s:
+                raise LinkLostError(
+                    f"no valid reply for {silent_s:.1f} s (replies late or out of step: "
+                    f"{self.counters['discarded_replies']} discarded)"
+                )
+
+    # --- the handshake ---------------------------------------------------------------------
+
+    def handshake(self) -> Handshake:
+        """Wait for the board to answer ``b``, then for two ``e`` replies in step.
+
+        Boards that reset when the port opens ignore input for a second or two while booting,
+        hence the wait of up to ``handshake_timeout_s``. LinkLostError when the board does not
+        answer (in step) in time, or when closing.
+        """
+        config = self.config
+        deadline = self._clock() + config.handshake_timeout_s
+        probe_s = max(0.25, config.read_timeout_s)
+        baud = None
+        while baud is None:
+            if self._closing.is_set():
+                raise LinkLostError("closing")
+            self.resync(quiet=False)
+            self.write(encode_get_baud())
+            try:
+                line = self.read_line(self._clock() + probe_s)
+                if isinstance(line, OversizedLine):
+                    raise ReplyError("oversized", "oversized line while waiting for the board")
+                baud = parse_baud(line)
+            except ReadTimeoutError:
+                pass
+            except ReplyError as error:
+                if error.kind == "invalid_command":
+                    baud = 0  # alive, but a firmware without 'b'
+                else:
+                    self.counters.count("handshake_noise")
+            if baud is None and self._clock() >= deadline:
+                self.counters.count("handshake_failures")
+                raise LinkLostError(
+                    f"the board on {config.port} did not answer 'b' within "
+                    f"{config.handshake_timeout_s:g} s (wrong port or baud, or not "
+                    "ROSArduinoBridge firmware?)"
+                )
+        self.board_baud = baud or None
+        if baud and baud != config.baud:
+            self.counters.count("baud_mismatch")
+        pair, read_s = self._verify_in_step(deadline + config.stale_timeout_s)
+        return Handshake(self.board_baud, pair, read_s)
+
+    def _verify_in_step(self, deadline: float) -> tuple[tuple[int, int], float]:
+        """Two ``e`` exchanges, each on a quiet line and answered within the read timeout.
+
+        The protocol has no sequence numbers: a board that answers later than the timeout would
+        otherwise look healthy, its late replies taken for answers to later requests. With the
+        line quiet before each request, only a timely reply can pass; returns the last reading.
+        """
+        config = self.config
+        # Between the two exchanges the line must stay quiet longer than a reply could be late
+        # and still be mistaken for the next one (read timeout + quiet time).
+        quiet_s = max(0.05, config.read_timeout_s)
+        verified = 0
+        last_error = "no reply"
+        while True:
+            if self._closing.is_set():
+                raise LinkLostError("closing")
+            if self._clock() >= deadline:
+                self.counters.count("handshake_failures")
+                raise LinkLostError(
+                    f"the board on {config.port} answers 'b' but not 'e' in step within "
+                    f"{config.read_timeout_s:g} s ({last_error})"
+                )
+            wait_s = quiet_s + (config.read_timeout_s if verified else 0.0)
+            limit_s = max(deadline - self._clock(), 0.0)
+            if self.resync(quiet=True, quiet_s=wait_s, limit_s=limit_s) and verified:
+                verified, last_error = 0, "bytes arrived after a reply (late replies?)"
+                self.counters.count("handshake_noise")
+            sent = self._clock()
+            self.write(encode_read_encoders())
+            try:
+                line = self.read_line(sent + config.read_timeout_s)
+                if isinstance(line, OversizedLine):
+                    raise ReplyError("oversized", f"a {line.length}-byte line")
+                pair = parse_encoders(line)
+            except ReadTimeoutError:
+                verified, last_error = 0, f"no reply to 'e' within {config.read_timeout_s:g} s"
+                self.counters.count("handshake_noise")
+                continue
+            except ReplyError as error:
+                verified, last_error = 0, f"{error.kind}: {error.reason}"
+                self.counters.count("handshake_noise")
+                if error.kind == "invalid_command":
+                    self.counters.count("invalid_command")
+                continue
+            verified += 1
+            if verified >= 2:
+                return pair, sent + self.request_s(encode_read_encoders())
