@@ -2,7 +2,7 @@
 
 * ``wait_until(predicate, timeout, what)``: poll a condition (every few ms) until it holds; fails
   the test naming ``what`` on timeout. Used instead of fixed sleeps.
-* ``fake_board(**config)``: an emulated board (:class:`fishtail_driver.fake_board.FakeBoard`) on
+* ``fake_board(**config)``: an emulated board (:class:`fishtail_driver.board_pty.FakeBoard`) on
   a real pty, served by a thread of this process, with a symlink in tmp_path; stopped at teardown.
 * ``board_process(link, *args)``: ``python -m fishtail_driver.fake_board`` as a process (what
   ``fishtail-fake-board`` runs), its pty path read from its stdout; killed at teardown.
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import pytest
 
-from fishtail_driver.fake_board import BoardConfig, FakeBoard
+from fishtail_driver.board_pty import BoardConfig, FakeBoard
 from fishtail_driver.serial_backend import SerialBackend
 from fishtail_driver.serial_config import SerialConfig
 

@@ -2,20 +2,24 @@
 
 from __future__ import annotations
 
+import doctest
 import os
 import signal
 
 import pytest
 import serial
 
-from fishtail_driver.fake_board import BoardConfig, Firmware, main
+from fishtail_driver import board_firmware
+from fishtail_driver.board_firmware import Firmware, FirmwareConfig
+from fishtail_driver.board_pty import BoardConfig, FakeBoard
+from fishtail_driver.fake_board import main
 from fishtail_driver.protocol import INT32_MAX, INT32_MIN
 
 
 def firmware(**config) -> Firmware:
     """A board powered on at t = 0 (warnings collected in .warnings)."""
     warnings: list[str] = []
-    board = Firmware(BoardConfig(**config), 0.0, warn=warnings.append)
+    board = Firmware(FirmwareConfig(**config), 0.0, warn=warnings.append)
     board.warnings = warnings
     return board
 
@@ -28,6 +32,12 @@ def send(board: Firmware, data: bytes, now: float = 0.0) -> list[bytes]:
         if command is not None:
             replies.append(board.execute(command, now))
     return replies
+
+
+def test_doctests():
+    """The examples in the firmware's documentation hold."""
+    result = doctest.testmod(board_firmware)
+    assert result.failed == 0 and result.attempted >= 2
 
 
 def test_only_cr_runs_a_command_and_lf_is_an_ordinary_byte():
@@ -175,8 +185,6 @@ def test_slow_switch_delays_replies_from_delay_after_s_and_sigusr2(board_process
 
 def test_reply_delay_is_added_after_the_reading():
     """The board reads the encoders when the request arrives; the delay is on the way back."""
-    from fishtail_driver.fake_board import FakeBoard
-
     now = [0.0]
     board = FakeBoard(BoardConfig(delay_ms=80.0, delay_after_s=1.0), announce=lambda _: None,
                       clock=lambda: now[0])  # fmt: skip

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fishtail_driver import protocol
-from fishtail_driver.fake_board import BoardConfig, Firmware, atoi16
+from fishtail_driver.board_firmware import Firmware, FirmwareConfig, atoi16
 from fishtail_driver.protocol import (
     INT16_MAX,
     INT16_MIN,
@@ -94,7 +94,7 @@ def test_channel_ticks():
 @given(int16, int16)
 def test_motor_command_round_trips_through_the_firmware_parser(left, right):
     """What we encode is exactly what the firmware's byte parser and atoi make of it."""
-    firmware = Firmware(BoardConfig(), 0.0, warn=lambda _: None)
+    firmware = Firmware(FirmwareConfig(), 0.0, warn=lambda _: None)
     parsed = [firmware.feed_byte(byte) for byte in encode_motor_speeds(left, right)]
     command = parsed[-1]
     assert all(p is None for p in parsed[:-1]) and command is not None
