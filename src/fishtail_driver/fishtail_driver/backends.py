@@ -1,15 +1,21 @@
 """Motor backends behind one small interface: start, set speed, read the encoder, stop, close.
 
-The node owns the timing and the watchdog; a backend only talks to its motor. This module does not
-import rclpy.
+The node owns the timing and the watchdog; a backend only talks to its motor, and says what it
+needs of the node (:meth:`MotorBackend.watchdog_refusal`, :meth:`MotorBackend.set_command_hold`)
+and how often it can have a new sample (:attr:`MotorBackend.max_sample_rate_hz`). This module
+holds the interface and the simulated motor's backend; the board's is
+:mod:`fishtail_driver.serial_backend`. It does not import rclpy.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
+from collections.abc import Callable
 from typing import Protocol
 
+from fishtail_common.interface import Level
 from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
 
 
@@ -41,6 +47,16 @@ class MotorBackend(Protocol):
     #: What the motor is, for DiagnosticStatus.hardware_id (the port path for serial).
     hardware_id: str
 
+    @property
+    def max_sample_rate_hz(self) -> float:
+        """New encoder samples come at most this often (inf: whenever read() is called)."""
+
+    def watchdog_refusal(self, cmd_timeout_sec: float) -> str | None:
+        """Why the node's command watchdog may not be set to ``cmd_timeout_sec``, or None."""
+
+    def set_command_hold(self, hold_s: float | None) -> None:
+        """Keep a non-zero speed alive only while the last set_speed() is at most this old."""
+
     def start(self) -> None:
         """Connect; raise an exception naming the cause if the motor cannot be reached."""
 
@@ -69,11 +85,23 @@ class SimBackend:
     name = "sim"
     hardware_id = "sim"
 
-    def __init__(self, parameters: MotorParameters, clock=time.monotonic) -> None:
+    def __init__(
+        self, parameters: MotorParameters, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         """Create the model; ``clock`` is injectable for tests."""
         self.motor = SimulatedMotor(parameters)
         self._clock = clock
         self._last_s: float | None = None
+
+    #: Every read() advances the model: a new sample each time.
+    max_sample_rate_hz = math.inf
+
+    def watchdog_refusal(self, cmd_timeout_sec: float) -> str | None:
+        """Any timeout, 0 (no watchdog) included: nothing real moves."""
+        return None
+
+    def set_command_hold(self, hold_s: float | None) -> None:
+        """Nothing to keep alive: the model holds its command until the next one."""
 
     def start(self) -> None:
         """Nothing to connect to."""
@@ -109,7 +137,7 @@ class SimBackend:
         """Always OK: the model cannot fail."""
         motor = self.motor
         return (
-            0,
+            Level.OK,
             "simulated motor running",
             {
                 "target_speed_rad_s": f"{motor.target_rad_s:.4f}",

@@ -1,0 +1,123 @@
+"""The driver's parameters (name, default, range, meaning: each once) and the backend they make.
+
+Plain Python: the node declares these (:func:`fishtail_common.ros.declare`) and checks run-time
+changes with :meth:`~fishtail_common.parameters.ParameterSpec.check`; :func:`make_backend` turns
+the values in force into the motor backend they describe.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+from fishtail_common.interface import CARRIER_JOINT
+from fishtail_common.parameters import ParameterSpec, ParameterValue
+from fishtail_driver.backends import MotorBackend, SimBackend
+from fishtail_driver.motor_model import MotorParameters
+
+ParameterValues = Mapping[str, ParameterValue]
+
+DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec("backend", "sim", "motor backend: sim or serial", choices=("sim", "serial"),
+                  read_only=True),
+    ParameterSpec("publish_rate_hz", 200.0, "encoder publish rate", "Hz", 1.0, 1000.0),
+    ParameterSpec("cmd_timeout_sec", 0.5, "stop the motor when no command arrives for this long; "
+                  "0 disables the watchdog (sim backend only)", "s", 0.0, 60.0),
+    ParameterSpec("max_speed_rad_s", 20.0, "commands above this carrier speed are clamped",
+                  "rad/s", 0.1, 1000.0, read_only=True),
+    ParameterSpec("joint_name", CARRIER_JOINT,
+                  "name of the carrier joint in motor/joint_state (not empty)", non_empty=True),
+    ParameterSpec("diagnostics_period_sec", 1.0, "period of /diagnostics", "s", 0.1, 60.0,
+                  read_only=True),
+    ParameterSpec("rate_warn_fraction", 0.8, "WARN when motor/joint_state's rate over the last "
+                  "max(diagnostics_period_sec, 1 s) is below this fraction of the promised rate: "
+                  "publish_rate_hz, with backend serial at most serial_poll_rate_hz; 0 disables",
+                  minimum=0.0, maximum=1.0),
+    ParameterSpec("gap_warn_sec", 0.1, "WARN when motor/joint_state has a gap longer than this "
+                  "(and than 3 promised periods) in that window; 0 disables", "s", 0.0, 60.0),
+    ParameterSpec("encoder_counts_per_revolution", 2048,
+                  "encoder counts per motor-shaft revolution", minimum=1, maximum=10_000_000,
+                  read_only=True),
+    ParameterSpec("gear_ratio", 1.0, "motor-shaft turns per carrier turn", minimum=0.001,
+                  maximum=10000.0, read_only=True),
+    ParameterSpec("sim_time_constant_sec", 0.15, "sim: first-order speed time constant", "s",
+                  0.001, 100.0, read_only=True),
+    ParameterSpec("sim_speed_noise_rad_s", 0.0, "sim: std of a stationary speed disturbance "
+                  "(correlation time: the time constant)", "rad/s", 0.0, 100.0, read_only=True),
+    ParameterSpec("sim_seed", 0, "sim: noise seed", read_only=True),
+    # The serial backend (a ROSArduinoBridge board); the encoder is described by
+    # encoder_counts_per_revolution and gear_ratio, shared with the sim backend.
+    ParameterSpec("serial_port", "/dev/ttyACM0", "serial: device path (prefer "
+                  "/dev/serial/by-id/...) or pyserial URL", non_empty=True, read_only=True),
+    ParameterSpec("serial_baud", 57600, "serial: baud rate (the firmware's BAUDRATE)",
+                  minimum=300, maximum=4_000_000, read_only=True),
+    ParameterSpec("serial_read_timeout_sec", 0.1, "serial: longest wait for one reply", "s",
+                  0.005, 5.0, read_only=True),
+    ParameterSpec("serial_channel", "left", "serial: motor channel of the tail on the board: "
+                  "left or right", choices=("left", "right"), read_only=True),
+    ParameterSpec("serial_pid_rate_hz", 30, "serial: the firmware's PID_RATE; the PID frame is "
+                  "1000 // PID_RATE ms (30 -> 33 ms = 30.30 Hz); m speeds are encoder ticks per "
+                  "frame", "Hz", 1, 1000, read_only=True),
+    ParameterSpec("serial_poll_rate_hz", 100.0, "serial: encoder ('e') polls per second", "Hz",
+                  1.0, 1000.0, read_only=True),
+    ParameterSpec("serial_resend_period_sec", 0.5, "serial: re-send the current non-zero speed "
+                  "this often, within the board's 2 s auto-stop", "s", 0.05, 1.5, read_only=True),
+    ParameterSpec("serial_handshake_timeout_sec", 5.0, "serial: how long the board may take to "
+                  "answer after the port opens (boards that reset on open boot for 1-2 s)", "s",
+                  0.1, 60.0, read_only=True),
+    ParameterSpec("serial_stale_timeout_sec", 1.0, "serial: no valid reply for this long: "
+                  "reconnect", "s", 0.1, 60.0, read_only=True),
+)  # fmt: skip
+
+#: The specs by name.
+SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in DRIVER_PARAMETERS}
+
+
+def _sim_backend(values: ParameterValues) -> MotorBackend:
+    return SimBackend(
+        MotorParameters(
+            time_constant_s=float(values["sim_time_constant_sec"]),
+            max_speed_rad_s=float(values["max_speed_rad_s"]),
+            counts_per_revolution=int(values["encoder_counts_per_revolution"]),
+            gear_ratio=float(values["gear_ratio"]),
+            speed_noise_rad_s=float(values["sim_speed_noise_rad_s"]),
+            seed=int(values["sim_seed"]),
+        )
+    )
+
+
+def _serial_backend(values: ParameterValues) -> MotorBackend:
+    # Imported here: pyserial is needed with a board only.
+    from fishtail_driver.serial_backend import SerialBackend
+    from fishtail_driver.serial_config import SerialConfig
+
+    read_timeout_s = float(values["serial_read_timeout_sec"])
+    return SerialBackend(
+        SerialConfig(
+            port=str(values["serial_port"]),
+            baud=int(values["serial_baud"]),
+            read_timeout_s=read_timeout_s,
+            channel=str(values["serial_channel"]),
+            counts_per_revolution=int(values["encoder_counts_per_revolution"]),
+            gear_ratio=float(values["gear_ratio"]),
+            pid_rate_hz=int(values["serial_pid_rate_hz"]),
+            poll_rate_hz=float(values["serial_poll_rate_hz"]),
+            resend_period_s=float(values["serial_resend_period_sec"]),
+            max_speed_rad_s=float(values["max_speed_rad_s"]),
+            handshake_timeout_s=float(values["serial_handshake_timeout_sec"]),
+            stale_timeout_s=max(float(values["serial_stale_timeout_sec"]), 2.0 * read_timeout_s),
+        )
+    )
+
+
+_BACKENDS: dict[str, Callable[[ParameterValues], MotorBackend]] = {
+    "sim": _sim_backend,
+    "serial": _serial_backend,
+}
+
+
+def make_backend(values: ParameterValues) -> MotorBackend:
+    """The backend the ``backend`` parameter names, configured from ``values`` (not started).
+
+    ValueError, with the reason, for settings the backend cannot work with.
+    """
+    return _BACKENDS[str(values["backend"])](values)
