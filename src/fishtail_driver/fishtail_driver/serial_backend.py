@@ -1,39 +1,26 @@
 """The ``serial`` motor backend: a ROSArduinoBridge motor board over a serial port (pyserial).
 
 All serial I/O runs in one background thread owned by the backend; the methods the node calls
-(:meth:`SerialBackend.set_speed`, :meth:`~SerialBackend.read`, :meth:`~SerialBackend.stop`,
-:meth:`~SerialBackend.status`) only exchange state under a lock and never wait for the device.
-:meth:`~SerialBackend.close` waits (bounded) for the thread to send ``m 0 0`` and finish.
+only exchange state under a lock and never wait for the device (:meth:`~SerialBackend.close`
+waits, bounded, for the thread to send ``m 0 0`` and finish). The thread:
 
-The thread (this module: its states, reconnects, command re-sends and the status):
-
-- opens the port and waits for the board to answer in step before trusting it
+- opens the port and waits for the board to answer in step
   (:meth:`fishtail_driver.serial_link.SerialLink.handshake`), with bounded exponential backoff
-  between attempts;
-- polls ``e`` at ``poll_rate_hz`` and turns the channel's count into the continuous carrier angle
-  and its velocity (:class:`fishtail_driver.encoder_tracking.EncoderTracker`: board resets are
-  re-based, corrupt readings dropped); each reading is dated when its request reached the board;
+  between attempts; a device missing at start is retried, not fatal (status() is ERROR meanwhile);
+- polls ``e`` at ``poll_rate_hz``; :class:`fishtail_driver.encoder_tracking.EncoderTracker` turns
+  the readings into the continuous angle and its velocity, each dated when its request reached
+  the board; a re-based angle (board reset) keeps status() WARN for ``phase_warn_s``;
 - sends ``m`` when the commanded speed changes and re-sends it every ``resend_period_s`` while it
-  is not zero, so the board's 2 s auto-stop never fires while motion is commanded (and fires
-  within 2 s if this process dies). With ``command_hold_s`` (the driver node sets it to its
-  watchdog timeout plus a margin), a non-zero speed is re-sent only while the last
-  :meth:`SerialBackend.set_speed` call is at most that old: if the node stops calling (its
-  executor hangs, its watchdog with it), the re-sends stop and the board's own auto-stop stops
-  the motor within 2 s of the last ``m``;
-- counts and reports every fault. A transient one (a read timeout, a partial, garbled, binary or
-  oversized reply, ``Invalid Command``, replies out of step) costs one exchange and a
-  resynchronisation (:meth:`~fishtail_driver.serial_link.SerialLink.fence`); the link is declared
-  lost (ERROR, port closed, reconnect with backoff) on an I/O error, a vanished path or one that
-  points to another device, or when no valid reply arrived for ``stale_timeout_s``. A re-based
-  angle may have shifted the carrier phase: status() is WARN for ``phase_warn_s`` afterwards.
+  is not zero, so the board's 2 s auto-stop never fires while motion is commanded, but only while
+  the last :meth:`SerialBackend.set_speed` is at most ``command_hold_s`` old: if the node stops
+  calling (its executor hangs, its watchdog with it), the board's auto-stop stops the motor;
+- declares the link lost (ERROR, port closed, reconnect with backoff) on an I/O error, a path that
+  vanished or points to another device, or no valid reply for ``stale_timeout_s``; a transient
+  fault costs one exchange (:meth:`~fishtail_driver.serial_link.SerialLink.exchange`).
 
-:meth:`SerialBackend.read` returns each new encoder sample once and None when no new sample
-arrived since the previous call (and while disconnected): the driver then skips that publish
-tick, so ``motor/joint_state`` carries only real readings, at most at the poll rate, and pauses
-while the board is unreachable (the outage shows on ``/diagnostics`` as ERROR).
-
-The device missing at start is not fatal: start() returns, status() reports ERROR, and the thread
-keeps trying, so the driver can be started before the board is plugged in.
+:meth:`SerialBackend.read` returns each new sample once and None when none arrived since the
+previous call (and while disconnected): the driver then skips that publish tick, so
+``motor/joint_state`` carries only real readings, at most at the poll rate.
 """
 
 from __future__ import annotations
@@ -61,8 +48,8 @@ from fishtail_driver.serial_link import (
     LinkLostError,
     PortOpener,
     SerialLink,
-    StatusCounters,
 )
+from fishtail_driver.status_counters import StatusCounters
 
 
 class SerialBackend:

@@ -1,10 +1,10 @@
 """One serial port to a ROSArduinoBridge board: open, write, read lines, exchange, keep in step.
 
-Used by the serial backend's I/O thread only (nothing here is thread-safe except
-:class:`StatusCounters`). A failure that makes the port unusable raises :class:`LinkLostError`
-(the backend closes it and reconnects); a failed exchange (no reply, a partial, oversized or
-malformed one) is counted, the line is resynchronised (:meth:`SerialLink.fence`) and the exchange
-returns :class:`Failed`.
+Used by the serial backend's I/O thread only (nothing here is thread-safe but the
+:class:`~fishtail_driver.status_counters.StatusCounters` it counts in). A failure that makes the
+port unusable raises :class:`LinkLostError` (the backend closes it and reconnects); a failed
+exchange (no reply, a partial, oversized or malformed one) is counted, the line is
+resynchronised (:meth:`SerialLink.fence`) and the exchange returns :class:`Failed`.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from fishtail_driver.protocol import (
     parse_encoders,
 )
 from fishtail_driver.serial_config import SerialConfig
+from fishtail_driver.status_counters import StatusCounters
 
 T = TypeVar("T")
 
@@ -75,55 +76,6 @@ class Handshake:
     #: The last of the verifying ``e`` readings, and when the board took it.
     pair: tuple[int, int]
     read_s: float
-
-
-class StatusCounters:
-    """Named counters and the latest fault (kind, reason, time), shared across threads."""
-
-    def __init__(self, clock: Callable[[], float]) -> None:
-        """No counts, no fault."""
-        self._clock = clock
-        self._lock = threading.Lock()
-        self._counts: collections.Counter[str] = collections.Counter()
-        self._last_fault: tuple[str, str, float] | None = None
-
-    def count(self, *names: str, amount: int = 1) -> None:
-        """Add ``amount`` to each counter of ``names``, together."""
-        with self._lock:
-            for name in names:
-                self._counts[name] += amount
-
-    def set(self, name: str, value: int) -> None:
-        """Set counter ``name``."""
-        with self._lock:
-            self._counts[name] = value
-
-    def note(self, kind: str, reason: str) -> None:
-        """Make this the latest fault, without counting it."""
-        with self._lock:
-            self._last_fault = (kind, reason, self._clock())
-
-    def fault(self, kind: str, reason: str) -> None:
-        """Count a fault under ``kind`` and make it the latest."""
-        with self._lock:
-            self._counts[kind] += 1
-            self._last_fault = (kind, reason, self._clock())
-
-    def __getitem__(self, name: str) -> int:
-        """Counter ``name`` (0 if never counted)."""
-        with self._lock:
-            return self._counts[name]
-
-    @property
-    def last_fault(self) -> tuple[str, str, float] | None:
-        """(kind, reason, time) of the latest fault, or None."""
-        with self._lock:
-            return self._last_fault
-
-    def snapshot(self) -> tuple[dict[str, int], tuple[str, str, float] | None]:
-        """Every counter and the latest fault, taken together."""
-        with self._lock:
-            return dict(self._counts), self._last_fault
 
 
 class SerialLink:

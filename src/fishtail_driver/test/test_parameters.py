@@ -1,0 +1,47 @@
+"""The driver's parameter table, the backend it makes, and the shared status counters."""
+
+from __future__ import annotations
+
+import doctest
+import math
+
+import pytest
+
+from fishtail_common.parameters import ParameterValueError
+from fishtail_driver import status_counters
+from fishtail_driver.backends import SimBackend
+from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, make_backend
+
+
+def defaults(**changes) -> dict:
+    """Every parameter at its default, with ``changes``."""
+    return {**{spec.name: spec.default for spec in DRIVER_PARAMETERS}, **changes}
+
+
+def test_every_default_passes_its_own_check_and_names_are_unique():
+    assert len(SPECS) == len(DRIVER_PARAMETERS)
+    for spec in DRIVER_PARAMETERS:
+        assert spec.check(spec.default) == spec.default
+
+
+def test_run_time_changes_are_checked_with_the_reason():
+    with pytest.raises(ParameterValueError, match="joint_name must not be empty"):
+        SPECS["joint_name"].check("  ")
+    with pytest.raises(ParameterValueError, match="serial_channel must be one of left, right"):
+        SPECS["serial_channel"].check("middle")
+
+
+def test_backends_made_from_the_values_say_what_they_need_of_the_node(tmp_path):
+    sim = make_backend(defaults())
+    assert isinstance(sim, SimBackend) and sim.max_sample_rate_hz == math.inf
+    assert sim.watchdog_refusal(0.0) is None
+    serial = make_backend(defaults(backend="serial", serial_port=str(tmp_path / "tty"),
+                                   serial_poll_rate_hz=50.0))  # fmt: skip
+    assert serial.name == "serial" and serial.max_sample_rate_hz == 50.0
+    assert serial.watchdog_refusal(0.5) is None
+    assert "cmd_timeout_sec must be > 0 with backend serial" in serial.watchdog_refusal(0.0)
+
+
+def test_status_counters_doctests():
+    result = doctest.testmod(status_counters)
+    assert result.failed == 0 and result.attempted >= 3
