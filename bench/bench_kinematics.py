@@ -15,12 +15,8 @@ import tracemalloc
 import numpy as np
 from scipy.optimize import fsolve
 
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-)
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 
 BATCH = 1_000_000
 SPEED_RAD_S = 4.0

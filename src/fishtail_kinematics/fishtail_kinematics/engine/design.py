@@ -14,13 +14,8 @@ import math
 import numpy as np
 
 from fishtail_kinematics.engine.errors import DesignError, FishtailKinematicsError
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-    make_tail,
-)
+from fishtail_kinematics.engine.geometry import FloatArray, Geometry, OscillatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, Tail, make_tail
 
 
 def symmetric_rocker_link(
@@ -71,8 +66,8 @@ def assembly_interval(
 
 
 def swing_range_vs_pivot_offset(
-    geometry: OscillatoryGeometry, pivot_offsets_m: np.ndarray, rederive_rocker: bool = False
-) -> np.ndarray:
+    geometry: OscillatoryGeometry, pivot_offsets_m: FloatArray, rederive_rocker: bool = False
+) -> FloatArray:
     """Swing range of theta3 in radians for each OS; NaN marks an OS that cannot assemble.
 
     With ``rederive_rocker`` each OS gets its symmetric RS, as a designer would do.
@@ -94,6 +89,10 @@ def swing_range_vs_pivot_offset(
     return ranges
 
 
+#: Carrier angles of the cycle over which mu is fitted.
+FIN_RATIO_SAMPLES = 3600
+
+
 @dataclasses.dataclass(frozen=True)
 class FinRatioFit:
     """theta5 ~ mu theta3 fitted by least squares over one cycle, and how well it holds."""
@@ -105,12 +104,21 @@ class FinRatioFit:
     local_ratio_max: float
 
 
-def fit_fin_ratio(geometry: UndulatoryGeometry, samples: int = 3600) -> FinRatioFit:
-    """Fit mu in theta5 ~ mu theta3 over one carrier cycle (uniform in the motor angle)."""
-    tail = UndulatoryTail(geometry)
+def fit_fin_ratio(geometry: Geometry, samples: int = FIN_RATIO_SAMPLES) -> FinRatioFit:
+    """Fit mu in theta5 ~ mu theta3 over one carrier cycle (uniform in the motor angle).
+
+    The fin angle is the mechanism's fin joint (theta5); a mechanism without one raises
+    :class:`DesignError`.
+    """
+    return _fin_ratio_of(make_tail(geometry), samples)
+
+
+def _fin_ratio_of(tail: Tail, samples: int) -> FinRatioFit:
+    if tail.fin_joint is None:
+        raise DesignError(f"the {tail.name} tail has no fin joint: no fin ratio")
     state = tail.solve(np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False))
     theta3 = np.asarray(state.theta3)
-    theta5 = np.asarray(state.theta5)
+    theta5 = np.asarray(getattr(state, tail.fin_joint))
     mu = float(np.dot(theta3, theta5) / np.dot(theta3, theta3))
     deviation = theta5 - mu * theta3
     # The local ratio is meaningless near theta3 = 0; use the outer half of the swing.
@@ -125,10 +133,10 @@ def fit_fin_ratio(geometry: UndulatoryGeometry, samples: int = 3600) -> FinRatio
     )
 
 
-def design_summary(geometry: OscillatoryGeometry | UndulatoryGeometry) -> dict[str, object]:
+def design_summary(geometry: Geometry) -> dict[str, object]:
     """Everything the ``design`` command prints, as a flat mapping of named figures."""
     tail = make_tail(geometry)
-    drive = tail.drive if isinstance(tail, UndulatoryTail) else tail
+    drive = tail.drive
     summary: dict[str, object] = {}
     try:
         summary["symmetric_rocker_link_m"] = symmetric_rocker_link(
@@ -151,8 +159,8 @@ def design_summary(geometry: OscillatoryGeometry | UndulatoryGeometry) -> dict[s
     )
     summary["assembly_pivot_offset_min_m"] = low
     summary["assembly_pivot_offset_max_m"] = high
-    if isinstance(geometry, UndulatoryGeometry):
-        fit = fit_fin_ratio(geometry)
+    if tail.fin_joint is not None:
+        fit = _fin_ratio_of(tail, FIN_RATIO_SAMPLES)
         summary["fin_ratio_mu"] = fit.mu
         summary["fin_ratio_rms_deviation_rad"] = fit.rms_deviation_rad
         summary["fin_ratio_max_deviation_rad"] = fit.max_deviation_rad

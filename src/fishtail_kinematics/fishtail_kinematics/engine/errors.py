@@ -4,6 +4,8 @@ Each error says which condition failed and by how much, so that the edge (a para
 CLI, a diagnostic) can pass the message on unchanged.
 """
 
+from fishtail_common.parameters import ParameterValueError
+
 
 class FishtailKinematicsError(ValueError):
     """Base class of every error the engine raises for bad input."""
@@ -33,5 +35,9 @@ class DesignError(FishtailKinematicsError):
     """A design helper has no answer for the given geometry."""
 
 
-class ParameterError(FishtailKinematicsError):
-    """A parameter is unknown, of the wrong type or outside its documented range."""
+class ParameterError(FishtailKinematicsError, ParameterValueError):
+    """A parameter is unknown, of the wrong type or outside its documented range.
+
+    Also a :class:`~fishtail_common.parameters.ParameterValueError`, so that code handling the
+    suite's parameter refusals handles the engine's too.
+    """

@@ -37,6 +37,8 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
+from fishtail_common.interface import Level
+from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_kinematics.engine.stream_timing import PeriodTiming
 
 #: Largest plausible |carrier angle| [rad] (module docstring: why 1e9).
@@ -47,6 +49,8 @@ DEFAULT_BACKWARDS_TOLERANCE_RAD = 0.01
 #: Default lead of a stamp over the node's clock that is still accepted [s]: generous for two
 #: hosts whose clocks are synchronised, far below the hour a wrong clock is typically off.
 DEFAULT_FUTURE_TOLERANCE_S = 1.0
+#: Default time without input after which the nodes say STALE and the guard restarts [s].
+DEFAULT_STALE_TIMEOUT_S = 2.0
 
 NON_FINITE = "non_finite"
 ANGLE_OUT_OF_RANGE = "angle_out_of_range"
@@ -55,23 +59,34 @@ STAMP_NOT_INCREASING = "stamp_not_increasing"
 BACKWARDS = "backwards"
 #: Reasons of :meth:`CarrierGuard.check`, in the order they are checked.
 GUARD_REASONS = (NON_FINITE, ANGLE_OUT_OF_RANGE, STAMP_IN_FUTURE, STAMP_NOT_INCREASING, BACKWARDS)
-#: The nodes' parameters that configure a guard (stale_timeout_sec is declared with their other
-#: parameters): name -> (default, description, minimum, maximum).
-GUARD_PARAMETERS = {
-    "backwards_tolerance_rad": (
+#: The nodes' parameters that configure a guard.
+GUARD_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec(
+        "backwards_tolerance_rad",
         DEFAULT_BACKWARDS_TOLERANCE_RAD,
-        "a carrier angle this far below the highest one so far is dropped (encoder jitter "
-        "passes) [rad]",
+        "a carrier angle this far below the highest one so far is dropped (encoder jitter passes)",
+        "rad",
         0.0,
         10.0,
     ),
-    "future_tolerance_sec": (
+    ParameterSpec(
+        "future_tolerance_sec",
         DEFAULT_FUTURE_TOLERANCE_S,
-        "a sample stamped further ahead of this node's clock is dropped [s]",
+        "a sample stamped further ahead of this node's clock is dropped",
+        "s",
         0.001,
         86400.0,
     ),
-}
+)
+#: Both nodes' stale timeout, which is also when the guard follows a stream afresh.
+STALE_TIMEOUT = ParameterSpec(
+    "stale_timeout_sec",
+    DEFAULT_STALE_TIMEOUT_S,
+    "diagnostics say STALE after this long without input; the next sample is then accepted afresh",
+    "s",
+    0.1,
+    600.0,
+)
 #: What each reason means, for a log line.
 REASON_TEXT = {
     NON_FINITE: "a NaN or infinite value",
@@ -92,7 +107,7 @@ class CarrierGuard:
         self,
         backwards_tolerance_rad: float = DEFAULT_BACKWARDS_TOLERANCE_RAD,
         future_tolerance_ns: int = int(DEFAULT_FUTURE_TOLERANCE_S * 1e9),
-        restart_after_ns: int = 2_000_000_000,
+        restart_after_ns: int = int(DEFAULT_STALE_TIMEOUT_S * 1e9),
     ) -> None:
         """Create a guard that has accepted nothing yet."""
         self.backwards_tolerance_rad = backwards_tolerance_rad
@@ -133,15 +148,15 @@ class CarrierGuard:
         """Forget the reference: the next plausible sample is accepted whatever its stamp."""
         self._accepted_at_ns = None
 
-    def apply_parameters(self, values: Mapping[str, float]) -> None:
-        """Take the nodes' parameters among ``values`` (:data:`GUARD_PARAMETERS`), in SI units."""
+    def apply_parameters(self, values: Mapping[str, ParameterValue]) -> None:
+        """Take the guard's parameters among ``values``: :data:`GUARD_PARAMETERS`, the timeout."""
         if "backwards_tolerance_rad" in values:
             self.backwards_tolerance_rad = float(values["backwards_tolerance_rad"])
         if "future_tolerance_sec" in values:
-            self.future_tolerance_ns = int(values["future_tolerance_sec"] * 1e9)
-        if "stale_timeout_sec" in values:
+            self.future_tolerance_ns = int(float(values["future_tolerance_sec"]) * 1e9)
+        if STALE_TIMEOUT.name in values:
             # After the nodes' stale timeout without an accepted sample, follow the stream afresh.
-            self.restart_after_ns = int(values["stale_timeout_sec"] * 1e9)
+            self.restart_after_ns = int(float(values[STALE_TIMEOUT.name]) * 1e9)
 
 
 class DropCounts:
@@ -187,8 +202,8 @@ def drops_text(topic: str, counts: Mapping[str, int], period_s: float) -> str:
 
 def input_status(
     topic: str, drops: DropCounts, timing: PeriodTiming, period_s: float
-) -> tuple[int, str, dict[str, str]]:
-    """Level (0 OK, 1 WARN), message and values of an input stream over one period.
+) -> tuple[Level, str, dict[str, str]]:
+    """Level (OK or WARN), message and values of an input stream over one period.
 
     WARN when samples were dropped, or the stream had gaps or a low rate (:mod:`stream_timing`);
     the message names each problem, the values carry the counts per reason, the measured rate,
@@ -202,5 +217,5 @@ def input_status(
         problems.append(timing.describe(topic))
     values = {**drops.values(), **timing.values()}
     if problems:
-        return 1, "; ".join(problems), values
-    return 0, timing.describe(topic), values
+        return Level.WARN, "; ".join(problems), values
+    return Level.OK, timing.describe(topic), values

@@ -4,14 +4,16 @@
 ``visualization_msgs/Marker`` to be: the ring gear, the planet (its circle, the carrier crank and
 the planet diameter whose ends slide on the two axes), the Cardan point, the drive links, the tail
 link, the moving joints, the fixed pivots and the tip trail. The kinematics node converts them to
-messages (:mod:`fishtail_kinematics.nodes.marker_publisher`); the points come from
-:mod:`fishtail_kinematics.engine.linkage_points`, so RViz draws exactly what the engine solved.
+messages (:mod:`fishtail_kinematics.nodes.marker_publisher`); the points come from the tail
+(:meth:`~fishtail_kinematics.engine.mechanisms.Tail.link_points`), so RViz draws exactly what the
+engine solved.
 
 Every point is (x, y) in metres in the frame at O (z = 0).
 
->>> from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry, OscillatoryTail
->>> geometry = OscillatoryGeometry()
->>> specs = build_markers(geometry, OscillatoryTail(geometry).solve(0.0), [(0.3, 0.0), (0.3, 0.01)])
+>>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
+>>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
+>>> tail = OscillatoryTail(OscillatoryGeometry())
+>>> specs = build_markers(tail, tail.solve(0.0), [(0.3, 0.0), (0.3, 0.01)])
 >>> [spec.namespace for spec in specs]  # doctest: +NORMALIZE_WHITESPACE
 ['ring', 'guides', 'planet', 'carrier', 'cardan_point', 'links', 'tail_link', 'joints',
  'pivots', 'tip_trail']
@@ -25,13 +27,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_kinematics.engine.linkage_points import OscillatoryPoints, linkage_points
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryState,
-    UndulatoryGeometry,
-    UndulatoryState,
-)
+from fishtail_kinematics.engine.geometry import FloatArray, Geometry, LinkageState
+from fishtail_kinematics.engine.mechanisms import Tail
 
 LINE_STRIP = "line_strip"
 LINE_LIST = "line_list"
@@ -67,12 +64,12 @@ class MarkerSpec(NamedTuple):
     namespace: str
     marker_id: int
     kind: str
-    points: np.ndarray  # (n, 2)
+    points: FloatArray  # (n, 2)
     colour: tuple[float, float, float, float]
     size_m: float
 
 
-def _unit_circle(segments: int = CIRCLE_SEGMENTS) -> np.ndarray:
+def _unit_circle(segments: int = CIRCLE_SEGMENTS) -> FloatArray:
     angles = np.linspace(0.0, 2.0 * math.pi, segments + 1)
     return np.stack((np.cos(angles), np.sin(angles)), axis=-1)
 
@@ -81,52 +78,43 @@ _UNIT_CIRCLE = _unit_circle()
 _PLANET_CIRCLE = _unit_circle(PLANET_SEGMENTS)
 
 
-def drawing_scale_m(geometry: OscillatoryGeometry | UndulatoryGeometry) -> float:
-    """Overall size of the linkage: O to the tip of the straight tail."""
-    if isinstance(geometry, UndulatoryGeometry):
-        tail = geometry.swing_arm_m + geometry.fin_link_m
-    else:
-        tail = geometry.tail_link_m
-    return geometry.pivot_offset_m + tail + geometry.ring_radius_m
+def drawing_scale_m(geometry: Geometry) -> float:
+    """Overall size of the linkage: O to the tip of the straight tail, plus the ring."""
+    return geometry.pivot_offset_m + geometry.tail_extent_m + geometry.ring_radius_m
 
 
-def _segments(*pairs: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+def _segments(*pairs: tuple[FloatArray, FloatArray]) -> FloatArray:
     return np.array([point for pair in pairs for point in pair], float).reshape(-1, 2)
 
 
+def _polyline_segments(polyline: FloatArray) -> FloatArray:
+    """A polyline ``(k, 2)`` as LINE_LIST pairs: its points 0-1, 1-2, ..."""
+    return np.stack((polyline[:-1], polyline[1:]), axis=1).reshape(-1, 2)
+
+
 def build_markers(
-    geometry: OscillatoryGeometry | UndulatoryGeometry,
-    state: OscillatoryState | UndulatoryState,
-    trail: Sequence[tuple[float, float]] | np.ndarray = (),
+    tail: Tail,
+    state: LinkageState,
+    trail: Sequence[tuple[float, float]] | FloatArray = (),
 ) -> list[MarkerSpec]:
-    """The markers of one solved state (floats, as the node's scalar path gives them).
+    """The markers of one state of ``tail`` (floats, as the node's scalar path gives them).
 
     ``trail`` holds the last tip positions, oldest first; it is drawn when it has two or more.
     """
-    p = linkage_points(geometry, state)
-    ring = geometry.ring_radius_m
-    scale = drawing_scale_m(geometry)
+    p = tail.link_points(state)
+    ring = tail.geometry.ring_radius_m
+    scale = drawing_scale_m(tail.geometry)
     line = scale / 120.0
     joint = scale / 35.0
     ring_diameters = np.array([[0.0, -ring], [0.0, ring], [-ring, 0.0], [ring, 0.0]])
     carrier = _segments((p.origin, p.planet_centre), (p.cardan, p.planet_opposite))
-    if isinstance(p, OscillatoryPoints):
-        links = _segments((p.cardan, p.joint_r), (p.joint_r, p.pivot_s))
-        tail_link = _segments((p.pivot_s, p.tip))
-        joints = np.array([p.joint_r, p.tip])
-    else:
-        links = _segments(
-            (p.cardan, p.joint_r),
-            (p.joint_r, p.pivot_s),
-            (p.pivot_s, p.joint_w),
-            (p.slider_a, p.joint_v),
-        )
-        tail_link = _segments((p.joint_v, p.tip))
-        joints = np.array([p.joint_r, p.pin_u, p.slider_a, p.joint_v, p.joint_w, p.tip])
+    links = np.concatenate([_polyline_segments(polyline) for polyline in p.drive_links()])
+    tail_link = p.tail_link()
+    joints = p.moving_joints()
     planet = p.planet_centre + 0.5 * ring * _PLANET_CIRCLE
     # (namespace, kind, points, colour, size); the guides are the two diameters of the ring on
     # which P and the opposite rim point D slide.
-    table = [
+    table: list[tuple[str, str, FloatArray, tuple[float, float, float, float], float]] = [
         ("ring", LINE_STRIP, ring * _UNIT_CIRCLE, RING_COLOUR, line),
         ("guides", LINE_LIST, ring_diameters, GUIDE_COLOUR, 0.5 * line),
         ("planet", LINE_STRIP, planet, PLANET_COLOUR, line),
@@ -140,4 +128,7 @@ def build_markers(
     trail_points = np.asarray(trail, float).reshape(-1, 2)
     if len(trail_points) >= 2:
         table.append(("tip_trail", LINE_STRIP, trail_points, TRAIL_COLOUR, line))
-    return [MarkerSpec(namespace, 0, *rest) for namespace, *rest in table]
+    return [
+        MarkerSpec(namespace, 0, kind, points, colour, size)
+        for namespace, kind, points, colour, size in table
+    ]

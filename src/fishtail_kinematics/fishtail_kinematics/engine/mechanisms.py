@@ -10,8 +10,11 @@ along the body towards the tail, +y to the left, angles counter-clockwise, SI un
   slides along the body axis; VT is hinged to AV at V and to SW at W.
 
 Every solver takes either Python floats (the per-message path, ``math`` only) or numpy arrays
-(vectorised, no per-sample Python loop) and returns a named tuple of the same kind.
+(vectorised, no per-sample Python loop) and returns a named tuple of the same kind. Both tails
+offer their callers one surface, :class:`Tail` (name, joints, state fields, solving, the points
+to draw, the parameters they use), so that no caller needs to know which mechanism it drives.
 
+>>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 >>> tail = OscillatoryTail(OscillatoryGeometry())
 >>> round(math.degrees(tail.swing_range_rad), 2)
 53.13
@@ -22,12 +25,15 @@ Every solver takes either Python floats (the per-message path, ``math`` only) or
 
 from __future__ import annotations
 
-import dataclasses
+import abc
 import math
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import ClassVar, TypeVar, cast
 
 import numpy as np
+import numpy.typing as npt
 
+from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine.errors import (
     AssemblyError,
     InvalidInputError,
@@ -35,14 +41,25 @@ from fishtail_kinematics.engine.errors import (
     PinOffsetError,
     SolverError,
 )
-
-#: Report values (metres). RS is the exactly symmetric rocker, sqrt(PR^2 + OS*sqrt(OS^2 + R^2)).
-REPORT_RING_RADIUS_M = 0.1
-REPORT_CRANK_LINK_M = 0.1
-REPORT_PIVOT_OFFSET_M = 0.2
-REPORT_SYMMETRIC_ROCKER_LINK_M = math.sqrt(
-    REPORT_CRANK_LINK_M**2
-    + REPORT_PIVOT_OFFSET_M * math.hypot(REPORT_PIVOT_OFFSET_M, REPORT_RING_RADIUS_M)
+from fishtail_kinematics.engine.geometry import (
+    GEOMETRY_PARAMETERS,
+    OSCILLATORY,
+    UNDULATORY,
+    FloatArray,
+    Geometry,
+    LinkageState,
+    OscillatoryGeometry,
+    OscillatoryState,
+    Real,
+    UndulatoryGeometry,
+    UndulatoryState,
+)
+from fishtail_kinematics.engine.linkage_points import (
+    LinkagePoints,
+    OscillatoryPoints,
+    UndulatoryPoints,
+    oscillatory_points,
+    undulatory_points,
 )
 
 # Loop-closure tolerance of the undulatory solver: how far W may sit off its circle about V.
@@ -55,126 +72,20 @@ _SEED_POLYNOMIAL_DEGREE = 10
 _MAX_NEWTON_STEPS = 8
 
 
-def _check_lengths(values: dict[str, float]) -> None:
-    for name, value in values.items():
-        if not math.isfinite(value):
-            raise InvalidLengthError(f"{name} must be finite, got {value!r}")
-        if name != "phase_rad" and value <= 0.0:
-            raise InvalidLengthError(f"{name} must be positive, got {value!r} m")
-
-
-@dataclasses.dataclass(frozen=True)
-class OscillatoryGeometry:
-    """Lengths of mechanism 1 in metres, and the carrier phase psi in radians.
-
-    Report symbols: ring_radius_m = R, crank_link_m = PR, rocker_link_m = RS, tail_link_m = ST,
-    pivot_offset_m = OS, phase_rad = psi.
-    """
-
-    ring_radius_m: float = REPORT_RING_RADIUS_M
-    crank_link_m: float = REPORT_CRANK_LINK_M
-    rocker_link_m: float = REPORT_SYMMETRIC_ROCKER_LINK_M
-    tail_link_m: float = 0.15
-    pivot_offset_m: float = REPORT_PIVOT_OFFSET_M
-    phase_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        """Reject non-finite and non-positive values at once."""
-        for field in dataclasses.fields(self):
-            object.__setattr__(self, field.name, float(getattr(self, field.name)))
-        _check_lengths(dataclasses.asdict(self))
-
-
-@dataclasses.dataclass(frozen=True)
-class UndulatoryGeometry:
-    """Lengths of mechanism 2 in metres, and the carrier phase psi in radians.
-
-    Report symbols: swing_arm_m = SW, slotted_link_m = AV, fin_link_m = VT,
-    fin_joint_offset_m = VW, pin_offset_m = SU (not in the report; SW/2 by default); the drive
-    (R, PR, RS, OS, psi) is that of mechanism 1.
-    """
-
-    ring_radius_m: float = REPORT_RING_RADIUS_M
-    crank_link_m: float = REPORT_CRANK_LINK_M
-    rocker_link_m: float = REPORT_SYMMETRIC_ROCKER_LINK_M
-    pivot_offset_m: float = REPORT_PIVOT_OFFSET_M
-    phase_rad: float = 0.0
-    swing_arm_m: float = 0.16
-    slotted_link_m: float = 0.24
-    fin_link_m: float = 0.2
-    fin_joint_offset_m: float = 0.06
-    pin_offset_m: float = 0.08
-
-    def __post_init__(self) -> None:
-        """Reject non-finite and non-positive values at once."""
-        for field in dataclasses.fields(self):
-            object.__setattr__(self, field.name, float(getattr(self, field.name)))
-        _check_lengths(dataclasses.asdict(self))
-
-    def drive(self) -> OscillatoryGeometry:
-        """The mechanism-1 drive of this linkage (its tail link is SW)."""
-        return OscillatoryGeometry(
-            ring_radius_m=self.ring_radius_m,
-            crank_link_m=self.crank_link_m,
-            rocker_link_m=self.rocker_link_m,
-            tail_link_m=self.swing_arm_m,
-            pivot_offset_m=self.pivot_offset_m,
-            phase_rad=self.phase_rad,
-        )
-
-
-class OscillatoryState(NamedTuple):
-    """Pose and rates of mechanism 1 (floats or equally shaped arrays); SI units, radians."""
-
-    motor_angle: float | np.ndarray
-    motor_velocity: float | np.ndarray
-    slider_position: float | np.ndarray  # OP
-    slider_velocity: float | np.ndarray
-    theta1: float | np.ndarray
-    theta1_dot: float | np.ndarray
-    theta2: float | np.ndarray
-    theta2_dot: float | np.ndarray
-    theta3: float | np.ndarray
-    theta3_dot: float | np.ndarray
-    tip_x: float | np.ndarray
-    tip_y: float | np.ndarray
-    tip_x_dot: float | np.ndarray
-    tip_y_dot: float | np.ndarray
-
-
-class UndulatoryState(NamedTuple):
-    """Pose and rates of mechanism 2; the first fields mean what they mean in mechanism 1."""
-
-    motor_angle: float | np.ndarray
-    motor_velocity: float | np.ndarray
-    slider_position: float | np.ndarray
-    slider_velocity: float | np.ndarray
-    theta1: float | np.ndarray
-    theta1_dot: float | np.ndarray
-    theta2: float | np.ndarray
-    theta2_dot: float | np.ndarray
-    theta3: float | np.ndarray
-    theta3_dot: float | np.ndarray
-    tip_x: float | np.ndarray
-    tip_y: float | np.ndarray
-    tip_x_dot: float | np.ndarray
-    tip_y_dot: float | np.ndarray
-    theta4: float | np.ndarray
-    theta4_dot: float | np.ndarray
-    pin_u_distance: float | np.ndarray  # AU
-    pin_u_distance_rate: float | np.ndarray
-    slider_a_distance: float | np.ndarray  # AS
-    slider_a_distance_rate: float | np.ndarray
-    theta5: float | np.ndarray
-    theta5_dot: float | np.ndarray
-
-
 def _check_finite_scalars(phi: float, phi_dot: float) -> None:
     if not (math.isfinite(phi) and math.isfinite(phi_dot)):
         raise InvalidInputError(f"carrier angle {phi!r} and speed {phi_dot!r} must be finite")
 
 
-def _zero_dimensional_safe(solver, motor_angle, motor_velocity):
+_State = TypeVar("_State", OscillatoryState, UndulatoryState)
+_Value = TypeVar("_Value", float, FloatArray)
+
+
+def _zero_dimensional_safe(
+    solver: Callable[[FloatArray, FloatArray], _State],
+    motor_angle: npt.ArrayLike,
+    motor_velocity: npt.ArrayLike,
+) -> _State:
     # Non-finite input is refused rather than turned into NaN output. The array paths work in
     # place (out=...), which numpy refuses for 0-d results: solve those as one-element arrays and
     # hand back 0-d arrays.
@@ -190,7 +101,63 @@ def _zero_dimensional_safe(solver, motor_angle, motor_velocity):
     if phi.ndim or phi_dot.ndim:
         return solver(phi, phi_dot)
     state = solver(phi.reshape(1), phi_dot.reshape(1))
-    return type(state)(*(np.asarray(value).reshape(()) for value in state))
+    return type(state)._make(np.asarray(value).reshape(()) for value in state)
+
+
+class Tail(abc.ABC):
+    """One tail mechanism, as its callers (nodes, command line, analysis, drawing) use it.
+
+    The class attributes describe the mechanism without an instance: its :attr:`name` (the
+    ``mechanism`` parameter's value), its geometry type, the fields of its states, its joints and
+    which joint angle is the fin's (the last link's angle to the body axis).
+    """
+
+    name: ClassVar[str]
+    geometry_type: ClassVar[type[OscillatoryGeometry] | type[UndulatoryGeometry]]
+    #: Every field of a solved state, inputs first.
+    state_fields: ClassVar[tuple[str, ...]]
+    #: The joint angles published as the tail's joint states; each has a rate ``<name>_dot``.
+    joint_names: ClassVar[tuple[str, ...]]
+    #: The angle of a second tail joint (the fin link's), if the mechanism has one.
+    fin_joint: ClassVar[str | None]
+
+    def __init__(self, geometry: Geometry) -> None:
+        """Keep ``geometry``; subclasses validate it."""
+        self.geometry = geometry
+
+    @classmethod
+    def parameters(cls) -> tuple[ParameterSpec, ...]:
+        """The specs of the geometry parameters this mechanism uses."""
+        names = cls.geometry_type.__dataclass_fields__
+        return tuple(spec for spec in GEOMETRY_PARAMETERS if spec.name in names)
+
+    @classmethod
+    def joint_rate_names(cls) -> tuple[str, ...]:
+        """The state fields of the joints' rates, in the order of :attr:`joint_names`."""
+        return tuple(f"{name}_dot" for name in cls.joint_names)
+
+    @classmethod
+    def fin_angle_field(cls) -> str:
+        """The state field of the last link's angle to the body axis: theta3 or the fin joint."""
+        return cls.fin_joint or "theta3"
+
+    @property
+    @abc.abstractmethod
+    def drive(self) -> OscillatoryTail:
+        """The mechanism-1 drive (the tail itself for mechanism 1): swing range and extremes."""
+
+    @abc.abstractmethod
+    def solve(
+        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+    ) -> LinkageState:
+        """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
+
+        Floats take the scalar path; anything else is treated as arrays and broadcast together.
+        """
+
+    @abc.abstractmethod
+    def link_points(self, state: LinkageState) -> LinkagePoints:
+        """Every joint of ``state`` (solved by this tail) in the frame at O, for drawing."""
 
 
 def assembly_violations(
@@ -223,16 +190,23 @@ def assembly_violations(
     return problems
 
 
-class OscillatoryTail:
+class OscillatoryTail(Tail):
     """Mechanism 1: carrier angle to theta1, theta2, theta3, the tail tip and all their rates.
 
     Construction validates the geometry (raises :class:`AssemblyError` naming the failed condition)
     and finds the exact swing extremes of theta2, also where theta2 is not monotone in OP.
     """
 
+    name = OSCILLATORY
+    geometry_type = OscillatoryGeometry
+    state_fields = OscillatoryState._fields
+    joint_names = ("theta1", "theta2", "theta3")
+    fin_joint = None
+    geometry: OscillatoryGeometry
+
     def __init__(self, geometry: OscillatoryGeometry) -> None:
         """Validate ``geometry`` and precompute its swing extremes."""
-        self.geometry = geometry
+        super().__init__(geometry)
         g = geometry
         problems = assembly_violations(
             g.ring_radius_m, g.crank_link_m, g.rocker_link_m, g.pivot_offset_m
@@ -260,6 +234,11 @@ class OscillatoryTail:
         self.swing_range_rad = self.theta2_max - self.theta2_min
 
     @property
+    def drive(self) -> OscillatoryTail:
+        """The tail itself: mechanism 1 is the drive."""
+        return self
+
+    @property
     def monotone(self) -> bool:
         """Whether theta2 is monotone over the stroke (its extremes then sit at OP = -R and R)."""
         return not self.stationary_slider_positions
@@ -282,7 +261,7 @@ class OscillatoryTail:
         return math.atan2(self._OS, slider_position) + math.asin(k)
 
     def solve(
-        self, motor_angle: float | np.ndarray, motor_velocity: float | np.ndarray = 0.0
+        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
     ) -> OscillatoryState:
         """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
 
@@ -319,12 +298,17 @@ class OscillatoryTail:
             -self._ST * sin3 * theta2_dot, self._ST * cos3 * theta2_dot,
         )  # fmt: skip
 
-    def _solve_array(self, phi: np.ndarray, phi_dot: np.ndarray) -> OscillatoryState:
-        return self._solve_array_with_tail_trig(phi, phi_dot)[0]
+    def link_points(self, state: LinkageState) -> OscillatoryPoints:
+        """Every joint of ``state`` in the frame at O."""
+        return oscillatory_points(self.geometry, state)
 
-    def _solve_array_with_tail_trig(
-        self, phi: np.ndarray, phi_dot: np.ndarray
-    ) -> tuple[OscillatoryState, np.ndarray, np.ndarray]:
+    def _solve_array(self, phi: FloatArray, phi_dot: FloatArray) -> OscillatoryState:
+        return self.solve_array_with_tail_trig(phi, phi_dot)[0]
+
+    def solve_array_with_tail_trig(
+        self, phi: FloatArray, phi_dot: FloatArray
+    ) -> tuple[OscillatoryState, FloatArray, FloatArray]:
+        """The array path, with cos and sin of theta3 (mechanism 2 builds on them)."""
         # np.sin/np.cos/np.hypot cost ~8 ns a sample in float64, the algebra below ~0.5 ns an
         # operation: so only the carrier angle goes through trigonometry, every other sine and
         # cosine comes from the angle-sum identities, and the work is done in place.
@@ -385,7 +369,7 @@ class OscillatoryTail:
         return state, cos3, sin3
 
 
-class UndulatoryTail:
+class UndulatoryTail(Tail):
     """Mechanism 2: the drive of mechanism 1 plus the slotted link AV and the tail VT.
 
     The loop A-U-V-W is solved for AS by Newton's method, seeded by a polynomial in theta3 fitted
@@ -399,9 +383,16 @@ class UndulatoryTail:
     -0.5684
     """
 
+    name = UNDULATORY
+    geometry_type = UndulatoryGeometry
+    state_fields = UndulatoryState._fields
+    joint_names = ("theta1", "theta2", "theta3", "theta4", "theta5")
+    fin_joint = "theta5"
+    geometry: UndulatoryGeometry
+
     def __init__(self, geometry: UndulatoryGeometry) -> None:
         """Validate ``geometry`` over the whole swing and fit the solver's seed."""
-        self.geometry = geometry
+        super().__init__(geometry)
         g = geometry
         limit = g.swing_arm_m - g.fin_joint_offset_m
         if not 0.0 < g.pin_offset_m < limit:
@@ -414,7 +405,7 @@ class UndulatoryTail:
             raise InvalidLengthError(
                 f"VW < VT fails: VW = {g.fin_joint_offset_m:.6f} m, VT = {g.fin_link_m:.6f} m"
             )
-        self.drive = OscillatoryTail(g.drive())
+        self._drive = OscillatoryTail(g.drive())
         self._SU = g.pin_offset_m
         self._SW = g.swing_arm_m
         self._AV = g.slotted_link_m
@@ -431,9 +422,14 @@ class UndulatoryTail:
             )
         self._fit_seed()
 
+    @property
+    def drive(self) -> OscillatoryTail:
+        """The mechanism-1 drive, whose tail link is SW."""
+        return self._drive
+
     # The loop, written relative to S with a = AS: A = (-a, 0), U = SU e(theta3),
     # theta4 = direction A->U, V = A + AV e(theta4), and W = SW e(theta3) must lie at VW from V.
-    def _residual_and_slope(self, a, cos3, sin3):
+    def _residual_and_slope(self, a: _Value, cos3: _Value, sin3: _Value) -> tuple[_Value, _Value]:
         dx = a + self._SU * cos3
         dy = self._SU * sin3
         # np.hypot is ~15x slower than this and the operands are far from overflow.
@@ -493,21 +489,22 @@ class UndulatoryTail:
             )
 
     def solve(
-        self, motor_angle: float | np.ndarray, motor_velocity: float | np.ndarray = 0.0
+        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
     ) -> UndulatoryState:
         """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s]."""
         if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
-            return self._solve_scalar(self.drive.solve(float(motor_angle), float(motor_velocity)))
-        return _zero_dimensional_safe(
-            lambda phi, phi_dot: self._solve_array(
-                *self.drive._solve_array_with_tail_trig(phi, phi_dot)
-            ),
-            motor_angle,
-            motor_velocity,
-        )
+            return self._solve_scalar(self._drive.solve(float(motor_angle), float(motor_velocity)))
+        return _zero_dimensional_safe(self._solve_array_path, motor_angle, motor_velocity)
+
+    def link_points(self, state: LinkageState) -> UndulatoryPoints:
+        """Every joint of ``state`` (an undulatory state) in the frame at O."""
+        return undulatory_points(self.geometry, cast(UndulatoryState, state))
+
+    def _solve_array_path(self, phi: FloatArray, phi_dot: FloatArray) -> UndulatoryState:
+        return self._solve_array(*self._drive.solve_array_with_tail_trig(phi, phi_dot))
 
     def _solve_scalar(self, d: OscillatoryState) -> UndulatoryState:
-        theta3 = d.theta3
+        theta3 = cast(float, d.theta3)
         cos3, sin3 = math.cos(theta3), math.sin(theta3)
         a = 0.0
         for coefficient in self._seed_coefficients:
@@ -545,10 +542,10 @@ class UndulatoryTail:
         return self._assemble(d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates)
 
     def _solve_array(
-        self, d: OscillatoryState, cos3: np.ndarray, sin3: np.ndarray
+        self, d: OscillatoryState, cos3: FloatArray, sin3: FloatArray
     ) -> UndulatoryState:
         theta3 = d.theta3
-        a = np.polyval(self._seed, theta3)
+        a = cast(FloatArray, np.polyval(self._seed, theta3))
         residual, slope = self._residual_and_slope(a, cos3, sin3)
         for _ in range(_MAX_NEWTON_STEPS):
             a -= residual / slope
@@ -570,7 +567,17 @@ class UndulatoryTail:
         theta5 = np.arctan2(sin5, cos5)
         return self._assemble(d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates)
 
-    def _rates(self, theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au):
+    def _rates(
+        self,
+        theta3_dot: Real,
+        cos3: Real,
+        sin3: Real,
+        cos4: Real,
+        sin4: Real,
+        cos5: Real,
+        sin5: Real,
+        au: Real,
+    ) -> tuple[Real, Real, Real, Real]:
         # Time derivatives of the four loop equations, solved in closed form (docs/kinematics.md):
         #   AS' [cos5 - (AV/AU) sin4 sin(t4-t5)]
         #       = t3' [SW sin(t3-t5) - (AV SU/AU) sin(t4-t5) cos(t3-t4)]
@@ -596,7 +603,19 @@ class UndulatoryTail:
         ) / self._VW
         return theta4_dot, au_rate, slider_rate, theta5_dot
 
-    def _assemble(self, d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates):
+    def _assemble(
+        self,
+        d: OscillatoryState,
+        theta4: Real,
+        au: Real,
+        a: Real,
+        theta5: Real,
+        cos3: Real,
+        sin3: Real,
+        cos5: Real,
+        sin5: Real,
+        rates: tuple[Real, Real, Real, Real],
+    ) -> UndulatoryState:
         theta4_dot, au_rate, slider_rate, theta5_dot = rates
         t3_dot = d.theta3_dot
         tip_x = self._OS + self._SW * cos3 + self._WT * cos5
@@ -611,10 +630,10 @@ class UndulatoryTail:
         )  # fmt: skip
 
 
-def make_tail(
-    geometry: OscillatoryGeometry | UndulatoryGeometry,
-) -> OscillatoryTail | UndulatoryTail:
-    """The engine for a geometry of either mechanism."""
-    if isinstance(geometry, UndulatoryGeometry):
-        return UndulatoryTail(geometry)
-    return OscillatoryTail(geometry)
+#: The tail of each mechanism, by name.
+TAIL_TYPES: dict[str, type[Tail]] = {tail.name: tail for tail in (OscillatoryTail, UndulatoryTail)}
+
+
+def make_tail(geometry: Geometry) -> Tail:
+    """The engine for a geometry of either mechanism (validates it)."""
+    return TAIL_TYPES[geometry.mechanism](geometry)

@@ -37,23 +37,33 @@ from __future__ import annotations
 import dataclasses
 import math
 from array import array
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from fishtail_kinematics.engine.symmetry import BeatStatistics, beats_of
+from fishtail_common.parameters import ParameterSpec
+from fishtail_kinematics.engine.geometry import FloatArray
+from fishtail_kinematics.engine.symmetry import DEFAULT_HYSTERESIS_RAD, BeatStatistics, beats_of
 
 #: Strouhal numbers at which efficient swimmers and flyers cruise (Taylor et al. 2003).
 EFFICIENT_STROUHAL_RANGE = (0.2, 0.4)
 
 
-#: The parameters the monitor node declares and the analysis accepts, written once:
-#: name -> (default, description, minimum, maximum).
-SWIMMING_PARAMETERS = {
-    "forward_speed_m_s": (0.3, "forward speed U assumed for St and thrust [m/s]", 1e-3, 20.0),
-    "fin_span_m": (0.1, "fin span s at the trailing edge (the tip) [m]", 1e-3, 5.0),
-    "water_density_kg_m3": (1000.0, "water density rho [kg/m^3]", 1.0, 2000.0),
-}
+#: Fresh water [kg/m^3].
+FRESH_WATER_DENSITY_KG_M3 = 1000.0
+
+#: What the monitor node declares and the analysis accepts (as flags and in a parameter file).
+SWIMMING_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec(
+        "forward_speed_m_s", 0.3, "forward speed U assumed for St and thrust", "m/s", 1e-3, 20.0
+    ),
+    ParameterSpec("fin_span_m", 0.1, "fin span s at the trailing edge (the tip)", "m", 1e-3, 5.0),
+    ParameterSpec(
+        "water_density_kg_m3", FRESH_WATER_DENSITY_KG_M3, "water density rho", "kg/m^3", 1.0, 2000.0
+    ),
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,7 +76,7 @@ class SwimmingParameters:
 
     forward_speed_m_s: float
     fin_span_m: float
-    water_density_kg_m3: float = 1000.0
+    water_density_kg_m3: float = FRESH_WATER_DENSITY_KG_M3
 
     def __post_init__(self) -> None:
         """Refuse non-finite, zero or negative values with a message naming the field."""
@@ -77,6 +87,15 @@ class SwimmingParameters:
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{field.name} must be finite and > 0, got {value!r}")
             object.__setattr__(self, field.name, float(value))
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, object]) -> SwimmingParameters:
+        """The parameters named in ``values``; the others take their specs' defaults."""
+        # Any: __post_init__ checks each value's type and names the field it refuses.
+        chosen: dict[str, Any] = {
+            spec.name: values.get(spec.name, spec.default) for spec in SWIMMING_PARAMETERS
+        }
+        return cls(**chosen)
 
     @property
     def added_mass_per_length_kg_m(self) -> float:
@@ -163,8 +182,8 @@ def figures_from_kinematics(
 
 
 def _window(
-    time_s: np.ndarray, values: np.ndarray, start: float, end: float
-) -> tuple[np.ndarray, np.ndarray]:
+    time_s: FloatArray, values: FloatArray, start: float, end: float
+) -> tuple[FloatArray, FloatArray]:
     """(values, times) on [start, end]: the samples inside plus values interpolated at the ends."""
     inside = (time_s > start) & (time_s < end)
     ends = np.interp([start, end], time_s, values)
@@ -172,19 +191,19 @@ def _window(
     return window, np.concatenate(([start], time_s[inside], [end]))
 
 
-def _mean(time_s: np.ndarray, values: np.ndarray, start: float, end: float) -> float:
+def _mean(time_s: FloatArray, values: FloatArray, start: float, end: float) -> float:
     window, times = _window(time_s, values, start, end)
     return float(np.trapezoid(window, times) / (end - start))
 
 
 def tip_kinematics(
-    time_s,
-    tip_y,
-    tip_y_velocity,
-    fin_angle,
+    time_s: npt.ArrayLike,
+    tip_y: npt.ArrayLike,
+    tip_y_velocity: npt.ArrayLike,
+    fin_angle: npt.ArrayLike,
     *,
     beats: Sequence[BeatStatistics] | None = None,
-    hysteresis_rad: float = 0.01,
+    hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD,
 ) -> TipKinematics:
     """Frequency, excursion and mean squares of the tip motion over whole beats.
 
@@ -229,14 +248,14 @@ def tip_kinematics(
 
 
 def swimming_figures(
-    time_s,
-    tip_y,
-    tip_y_velocity,
-    fin_angle,
+    time_s: npt.ArrayLike,
+    tip_y: npt.ArrayLike,
+    tip_y_velocity: npt.ArrayLike,
+    fin_angle: npt.ArrayLike,
     parameters: SwimmingParameters,
     *,
     beats: Sequence[BeatStatistics] | None = None,
-    hysteresis_rad: float = 0.01,
+    hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD,
 ) -> SwimmingFigures:
     """f, A, St and Lighthill's mean thrust of a recorded tip motion over whole beats.
 

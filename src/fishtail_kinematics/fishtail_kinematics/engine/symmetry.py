@@ -35,8 +35,18 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+from collections.abc import Callable
 
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine.stream_timing import StreamTiming
+
+#: Default Schmitt-trigger width of the beat segmentation [rad].
+DEFAULT_HYSTERESIS_RAD = 0.01
+#: Default interval without samples after which the beat in progress is forgotten [s].
+DEFAULT_GAP_RESET_S = 0.5
 
 
 class Verdict(enum.IntEnum):
@@ -69,6 +79,37 @@ class SymmetryTolerances:
         for name, warn, error in pairs:
             if not (math.isfinite(warn) and math.isfinite(error) and 0.0 <= warn <= error):
                 raise ValueError(f"{name} tolerances need 0 <= warn <= error, got {warn}, {error}")
+
+
+def _tolerance_parameter(field: dataclasses.Field[float]) -> ParameterSpec:
+    unit = "rad" if field.name.endswith("_rad") else "share of the beat, |share - 0.5|"
+    level = "WARN" if "warn" in field.name else "ERROR"
+    assert isinstance(field.default, float)
+    return ParameterSpec(field.name, field.default, f"{level} above this", unit, 0.0, 1.0)
+
+
+#: The monitor's parameters of beat segmentation and judgement (defaults: the dataclass's and
+#: the constants above), also read from a parameter file by the offline analysis.
+HYSTERESIS = ParameterSpec(
+    "hysteresis_rad",
+    DEFAULT_HYSTERESIS_RAD,
+    "theta3 must go below -hysteresis before an upward zero crossing counts as a new beat",
+    "rad",
+    0.0,
+    0.5,
+)
+GAP_RESET = ParameterSpec(
+    "gap_reset_sec",
+    DEFAULT_GAP_RESET_S,
+    "a gap in tail/state longer than this restarts the beat",
+    "s",
+    0.01,
+    60.0,
+)
+TOLERANCE_PARAMETERS: tuple[ParameterSpec, ...] = tuple(
+    _tolerance_parameter(field) for field in dataclasses.fields(SymmetryTolerances)
+)
+SYMMETRY_PARAMETERS: tuple[ParameterSpec, ...] = (*TOLERANCE_PARAMETERS, HYSTERESIS, GAP_RESET)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -136,7 +177,7 @@ def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict
     if reason is not None:
         return Verdict.NOT_JUDGED, reason
     degrees = math.degrees
-    measures = (
+    measures: tuple[tuple[str, float, float, float, str, Callable[[float], str]], ...] = (
         ("time share", beat.time_share_imbalance, tolerances.time_share_warn,
          tolerances.time_share_error, f"{beat.positive_time_share:.4f} of the beat on +side",
          lambda limit: f"0.5 +/- {limit:g}"),
@@ -177,7 +218,7 @@ class BeatTracker:
     length in :attr:`BeatStatistics.gap_s` and are not judged.
     """
 
-    def __init__(self, hysteresis_rad: float = 0.01) -> None:
+    def __init__(self, hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD) -> None:
         """Create a tracker that needs theta3 below -hysteresis_rad before a crossing counts."""
         if not (math.isfinite(hysteresis_rad) and hysteresis_rad >= 0.0):
             raise ValueError(f"hysteresis_rad must be finite and >= 0, got {hysteresis_rad!r}")
@@ -302,7 +343,11 @@ class BeatTracker:
 
 
 def beats_of(
-    time_s, theta3, hysteresis_rad: float = 0.01, carrier_rad=None, gap_reset_s: float = math.inf
+    time_s: npt.ArrayLike,
+    theta3: npt.ArrayLike,
+    hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD,
+    carrier_rad: npt.ArrayLike | None = None,
+    gap_reset_s: float = math.inf,
 ) -> list[BeatStatistics]:
     """All complete beats of a recorded series (the same code path as the live monitor).
 
@@ -313,15 +358,18 @@ def beats_of(
     tracker = BeatTracker(hysteresis_rad)
     timing = StreamTiming()
     beats = []
-    carriers = [None] * len(time_s) if carrier_rad is None else carrier_rad
+    times: list[float] = np.asarray(time_s, float).ravel().tolist()
+    values: list[float] = np.asarray(theta3, float).ravel().tolist()
+    carriers: list[float] | list[None] = (
+        [None] * len(times) if carrier_rad is None else np.asarray(carrier_rad, float).tolist()
+    )
     previous = None
-    for t, value, carrier in zip(time_s, theta3, carriers, strict=True):
-        t = float(t)
+    for t, value, carrier in zip(times, values, carriers, strict=True):
         if previous is not None and t - previous > gap_reset_s:
             tracker.reset()
         previous = t
         gap = timing.observe(t)
-        beat = tracker.add(t, float(value), None if carrier is None else float(carrier), gap)
+        beat = tracker.add(t, value, carrier, gap)
         if beat is not None:
             beats.append(beat)
     return beats

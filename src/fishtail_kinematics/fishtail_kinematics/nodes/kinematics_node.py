@@ -24,103 +24,112 @@ stays in force; a set that changes nothing is not news and is not logged.
 from __future__ import annotations
 
 import math
+import operator
 import sys
+from collections.abc import Callable
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped
-from rcl_interfaces.msg import IntegerRange, ParameterDescriptor, SetParametersResult
-from rclpy.node import Node
-from rclpy.qos import qos_profile_sensor_data
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
+from fishtail_common.interface import (
+    CARRIER_JOINT,
+    DIAGNOSTICS,
+    MOTOR_JOINT_STATE,
+    TAIL_FRAME,
+    TAIL_JOINT_STATES,
+    TAIL_STATE,
+    TAIL_TIP,
+    Level,
+)
+from fishtail_common.parameters import ParameterSpec
+from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_kinematics.engine.geometry import (
+    GEOMETRY_PARAMETERS,
+    MECHANISM_CODES,
+    LinkageState,
+)
 from fishtail_kinematics.engine.input_guard import (
     GUARD_PARAMETERS,
     GUARD_REASONS,
     REASON_TEXT,
+    STALE_TIMEOUT,
     CarrierGuard,
     DropCounts,
     input_status,
 )
-from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
+from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import (
-    MECHANISM_PARAMETER,
+    GEOMETRY_PARAMETER_NAMES,
+    MECHANISM,
     changes_text,
     geometry_changes,
     geometry_from_parameters,
     geometry_parameters_in,
 )
 from fishtail_kinematics.engine.stream_timing import StreamTiming
-from fishtail_kinematics.nodes.marker_publisher import TailMarkerPublisher
-from fishtail_kinematics.nodes.ros_common import (
-    LEVEL_STALE,
-    declare_geometry_parameters,
-    diagnostic_array,
-    float_descriptor,
-    geometry_parameter_values,
-    run_node,
+from fishtail_kinematics.nodes.marker_publisher import (
+    MARKER_PARAMETERS,
+    MARKERS_RATE,
+    MARKERS_TRAIL_LENGTH,
+    TailMarkerPublisher,
 )
 from fishtail_msgs.msg import TailState
 
-INPUT_TOPIC = "motor/joint_state"
+INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
 #: Drop reasons of the node itself, besides the guard's.
 NO_CARRIER_JOINT = "no_carrier_joint"
 ENGINE_REFUSED = "engine_refused"
-OSCILLATORY_JOINTS = ["theta1", "theta2", "theta3"]
-UNDULATORY_JOINTS = [*OSCILLATORY_JOINTS, "theta4", "theta5"]
+
+MOTOR_JOINT_NAME = ParameterSpec(
+    "motor_joint_name", CARRIER_JOINT, f"joint of {INPUT_TOPIC} that is the carrier"
+)
+FRAME_ID = ParameterSpec(
+    "frame_id",
+    TAIL_FRAME,
+    f"frame of {TAIL_TIP.name}: origin O (ring-gear centre), x back along the body towards the "
+    "tail, y left, z down",
+    read_only=True,
+)
+#: Every parameter of the node.
+PARAMETERS: tuple[ParameterSpec, ...] = (
+    MECHANISM,
+    *GEOMETRY_PARAMETERS,
+    MOTOR_JOINT_NAME,
+    FRAME_ID,
+    STALE_TIMEOUT,
+    *MARKER_PARAMETERS,
+    *GUARD_PARAMETERS,
+)
+#: Engine state fields that TailState carries in a nested message (the tip and its velocity).
+_NESTED_FIELDS = frozenset({"tip_x", "tip_y", "tip_x_dot", "tip_y_dot"})
+_TAIL_STATE_FLOATS = tuple(
+    name for name, kind in TailState.get_fields_and_field_types().items() if kind == "double"
+)
 _NAN = float("nan")
 
 
-class KinematicsNode(Node):
+class KinematicsNode(SuiteNodeBase):
     """Thin shell around the engine: messages in, messages out, parameters validated."""
 
     def __init__(self) -> None:
         """Declare parameters, build the engine (raises on an infeasible geometry), wire topics."""
         super().__init__("kinematics")
-        declare_geometry_parameters(self)
-        self.declare_parameter(
-            "motor_joint_name", "carrier_joint",
-            ParameterDescriptor(description="joint of motor/joint_state that is the carrier"),
-        )  # fmt: skip
-        self.declare_parameter(
-            "frame_id", "tail_mechanism",
-            ParameterDescriptor(
-                description="frame of tail/tip: origin O (ring-gear centre), x back along the body "
-                "towards the tail, y left, z down",
-                read_only=True,
-            ),
-        )  # fmt: skip
-        self.declare_parameter(
-            "stale_timeout_sec", 2.0,
-            float_descriptor("diagnostics say STALE after this long without input [s]", 0.1, 600.0),
-        )  # fmt: skip
-        self.declare_parameter(
-            "markers_rate_hz", 30.0,
-            float_descriptor("tail/markers publication rate, 0 = off [Hz]", 0.0, 100.0),
-        )  # fmt: skip
-        self.declare_parameter(
-            "markers_trail_length", 90,
-            ParameterDescriptor(
-                description="tip positions in the marker trail, one per marker tick",
-                integer_range=[IntegerRange(from_value=0, to_value=10000, step=1)],
-            ),
-        )  # fmt: skip
-        for name, (default, text, low, high) in GUARD_PARAMETERS.items():
-            self.declare_parameter(name, default, float_descriptor(text, low, high))
-        self.tail = make_tail(geometry_from_parameters(geometry_parameter_values(self)))
-        self.frame_id = self.get_parameter("frame_id").value
-        self.motor_joint_name = self.get_parameter("motor_joint_name").value
+        values = declare(self, PARAMETERS)
+        self.tail = make_tail(geometry_from_parameters(geometry_parameters_in(values)))
+        self.frame_id = str(values[FRAME_ID.name])
+        self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
+        self.stale_timeout_s = float(values[STALE_TIMEOUT.name])
         self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
         self._previous_input: tuple[int, float] | None = None  # (stamp ns, angle) accepted
         self.received = 0
         self.guard = CarrierGuard()
-        self.guard.apply_parameters(
-            {
-                name: self.get_parameter(name).value
-                for name in (*GUARD_PARAMETERS, "stale_timeout_sec")
-            }
-        )
+        self.guard.apply_parameters(values)
         self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT, ENGINE_REFUSED))
         self._drop_log = {
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
@@ -131,54 +140,61 @@ class KinematicsNode(Node):
         self.joint_states = JointState()
         self.tip = PointStamped()
         self.state = TailState()
+        self._joint_positions: Callable[[LinkageState], Any] = operator.attrgetter("theta1")
+        self._joint_rates: Callable[[LinkageState], Any] = operator.attrgetter("theta1_dot")
+        self._copied_fields: tuple[str, ...] = ()
         self._configure_messages()
         self.joint_publisher = self.create_publisher(
-            JointState, "tail/joint_states", qos_profile_sensor_data
+            JointState, TAIL_JOINT_STATES.name, qos_profile(TAIL_JOINT_STATES)
         )
         self.tip_publisher = self.create_publisher(
-            PointStamped, "tail/tip", qos_profile_sensor_data
+            PointStamped, TAIL_TIP.name, qos_profile(TAIL_TIP)
         )
         self.state_publisher = self.create_publisher(
-            TailState, "tail/state", qos_profile_sensor_data
+            TailState, TAIL_STATE.name, qos_profile(TAIL_STATE)
         )
-        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+        )
         self.create_subscription(
-            JointState, "motor/joint_state", self._on_motor_state, qos_profile_sensor_data
+            JointState, INPUT_TOPIC, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
         )
         self.markers = TailMarkerPublisher(
-            self, self.tail.geometry, self.frame_id,
-            self.get_parameter("markers_rate_hz").value,
-            self.get_parameter("markers_trail_length").value,
-        )  # fmt: skip
+            self,
+            self.tail,
+            self.frame_id,
+            float(values[MARKERS_RATE.name]),
+            int(values[MARKERS_TRAIL_LENGTH.name]),
+        )
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info(f"kinematics up: {self._geometry_text()}")
 
     def _geometry_text(self) -> str:
-        drive = self.tail.drive if isinstance(self.tail, UndulatoryTail) else self.tail
         return (
-            f"{self.get_parameter(MECHANISM_PARAMETER).value} mechanism, swing range "
-            f"{math.degrees(drive.swing_range_rad):.3f} deg"
+            f"{self.tail.name} mechanism, swing range "
+            f"{math.degrees(self.tail.drive.swing_range_rad):.3f} deg"
         )
 
     def _configure_messages(self) -> None:
-        undulatory = isinstance(self.tail, UndulatoryTail)
-        self.joint_states.name = UNDULATORY_JOINTS if undulatory else OSCILLATORY_JOINTS
+        """Set what the tail's mechanism decides once: joint names, fields to copy, NaN fields."""
+        tail: Tail = self.tail
+        self.joint_states.name = list(tail.joint_names)
+        self._joint_positions = operator.attrgetter(*tail.joint_names)
+        self._joint_rates = operator.attrgetter(*tail.joint_rate_names())
+        self._copied_fields = tuple(
+            name for name in tail.state_fields if name not in _NESTED_FIELDS
+        )
         self.tip.header.frame_id = self.frame_id
         self.state.header.frame_id = self.frame_id
-        self.state.mechanism = (
-            TailState.MECHANISM_UNDULATORY if undulatory else TailState.MECHANISM_OSCILLATORY
-        )
-        if not undulatory:
-            for field in (
-                "theta4", "theta4_dot", "pin_u_distance", "pin_u_distance_rate",
-                "slider_a_distance", "slider_a_distance_rate", "theta5", "theta5_dot",
-            ):  # fmt: skip
-                setattr(self.state, field, _NAN)
+        self.state.mechanism = MECHANISM_CODES[tail.name]
+        for name in _TAIL_STATE_FLOATS:
+            if name not in tail.state_fields:
+                setattr(self.state, name, _NAN)  # a field of another mechanism
 
-    def _on_set_parameters(self, parameters) -> SetParametersResult:
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
-        current = geometry_parameter_values(self)
+        current = {name: self.get_parameter(name).value for name in GEOMETRY_PARAMETER_NAMES}
         # `ros2 param load` sets every parameter of the file: only real changes rebuild and log.
         geometry = geometry_changes(current, changed)
         if geometry:
@@ -190,22 +206,21 @@ class KinematicsNode(Node):
                 return SetParametersResult(successful=False, reason=str(error))
             self.tail = tail
             self._configure_messages()
-            self.markers.reset(tail.geometry)
+            self.markers.reset(tail)
             self.get_logger().info(f"geometry changed: {changes_text(geometry)}")
-        if "motor_joint_name" in changed:
-            self.motor_joint_name = changed["motor_joint_name"]
+        if MOTOR_JOINT_NAME.name in changed:
+            self.motor_joint_name = changed[MOTOR_JOINT_NAME.name]
             self._joint_index_cache = ((), None)
-        self._apply_marker_parameters(changed)
+        if STALE_TIMEOUT.name in changed:
+            self.stale_timeout_s = changed[STALE_TIMEOUT.name]
+        if MARKERS_RATE.name in changed:
+            self.markers.set_rate(changed[MARKERS_RATE.name])
+        if MARKERS_TRAIL_LENGTH.name in changed:
+            self.markers.set_trail_length(changed[MARKERS_TRAIL_LENGTH.name])
         self.guard.apply_parameters(changed)
         return SetParametersResult(successful=True)
 
-    def _apply_marker_parameters(self, changed: dict) -> None:
-        if "markers_rate_hz" in changed:
-            self.markers.set_rate(changed["markers_rate_hz"])
-        if "markers_trail_length" in changed:
-            self.markers.set_trail_length(changed["markers_trail_length"])
-
-    def _joint_index(self, names) -> int | None:
+    def _joint_index(self, names: list[str]) -> int | None:
         key = tuple(names)
         cached_names, index = self._joint_index_cache
         if key != cached_names:
@@ -254,17 +269,12 @@ class KinematicsNode(Node):
         self.publish_state(state, stamp)
         self.markers.latest = (state, stamp)
 
-    def publish_state(self, s, stamp) -> None:
+    def publish_state(self, s: LinkageState, stamp: Any) -> None:
         """Fill and publish the three tail messages from an engine state."""
-        undulatory = isinstance(self.tail, UndulatoryTail)
         joints = self.joint_states
         joints.header.stamp = stamp
-        if undulatory:
-            joints.position = [s.theta1, s.theta2, s.theta3, s.theta4, s.theta5]
-            joints.velocity = [s.theta1_dot, s.theta2_dot, s.theta3_dot, s.theta4_dot, s.theta5_dot]
-        else:
-            joints.position = [s.theta1, s.theta2, s.theta3]
-            joints.velocity = [s.theta1_dot, s.theta2_dot, s.theta3_dot]
+        joints.position = self._joint_positions(s)
+        joints.velocity = self._joint_rates(s)
         self.joint_publisher.publish(joints)
 
         tip = self.tip
@@ -275,25 +285,8 @@ class KinematicsNode(Node):
 
         state = self.state
         state.header.stamp = stamp
-        state.motor_angle = s.motor_angle
-        state.motor_velocity = s.motor_velocity
-        state.slider_position = s.slider_position
-        state.slider_velocity = s.slider_velocity
-        state.theta1 = s.theta1
-        state.theta1_dot = s.theta1_dot
-        state.theta2 = s.theta2
-        state.theta2_dot = s.theta2_dot
-        state.theta3 = s.theta3
-        state.theta3_dot = s.theta3_dot
-        if undulatory:
-            state.theta4 = s.theta4
-            state.theta4_dot = s.theta4_dot
-            state.pin_u_distance = s.pin_u_distance
-            state.pin_u_distance_rate = s.pin_u_distance_rate
-            state.slider_a_distance = s.slider_a_distance
-            state.slider_a_distance_rate = s.slider_a_distance_rate
-            state.theta5 = s.theta5
-            state.theta5_dot = s.theta5_dot
+        for name in self._copied_fields:
+            setattr(state, name, getattr(s, name))
         state.tip.x = s.tip_x
         state.tip.y = s.tip_y
         state.tip_velocity.x = s.tip_x_dot
@@ -302,13 +295,15 @@ class KinematicsNode(Node):
 
     def _on_diagnostics(self) -> None:
         now_ns = self.get_clock().now().nanoseconds
-        stale_after = self.get_parameter("stale_timeout_sec").value
         level, text, input_values = input_status(
             INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
         )
-        if self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after:
-            level, text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
-        elif level == 0:
+        if (
+            self.last_input_ns is None
+            or (now_ns - self.last_input_ns) * 1e-9 > self.stale_timeout_s
+        ):
+            level, text = Level.STALE, f"no {INPUT_TOPIC} received recently"
+        elif level == Level.OK:
             text = f"{self._geometry_text()}; {text}"
         values = {
             "received": str(self.received),

@@ -19,9 +19,14 @@ from typing import TYPE_CHECKING
 
 from geometry_msgs.msg import Point
 from rclpy.node import Node
+from rclpy.timer import Timer
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
+from fishtail_common.interface import TAIL_MARKERS
+from fishtail_common.parameters import ParameterSpec
+from fishtail_common.ros import qos_profile
+from fishtail_kinematics.engine.geometry import LinkageState
 from fishtail_kinematics.engine.markers import (
     LINE_LIST,
     LINE_STRIP,
@@ -30,12 +35,22 @@ from fishtail_kinematics.engine.markers import (
     MarkerSpec,
     build_markers,
 )
-from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import Tail
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time
 
-MARKERS_TOPIC = "tail/markers"
+MARKERS_RATE = ParameterSpec(
+    "markers_rate_hz", 30.0, f"{TAIL_MARKERS.name} publication rate, 0 = off", "Hz", 0.0, 100.0
+)
+MARKERS_TRAIL_LENGTH = ParameterSpec(
+    "markers_trail_length",
+    90,
+    "tip positions in the marker trail, one per marker tick",
+    minimum=0,
+    maximum=10000,
+)
+MARKER_PARAMETERS = (MARKERS_RATE, MARKERS_TRAIL_LENGTH)
 _MARKER_TYPES = {
     LINE_STRIP: Marker.LINE_STRIP,
     LINE_LIST: Marker.LINE_LIST,
@@ -77,24 +92,21 @@ class TailMarkerPublisher:
     """Publisher, throttle timer and tip trail of ``tail/markers`` for one node."""
 
     def __init__(
-        self,
-        node: Node,
-        geometry: OscillatoryGeometry | UndulatoryGeometry,
-        frame_id: str,
-        rate_hz: float,
-        trail_length: int,
+        self, node: Node, tail: Tail, frame_id: str, rate_hz: float, trail_length: int
     ) -> None:
         """Create the publisher and, unless ``rate_hz`` is 0, the timer."""
         self._node = node
         self.frame_id = frame_id
-        self.geometry = geometry
-        self.publisher = node.create_publisher(MarkerArray, MARKERS_TOPIC, 10)
+        self.tail = tail
+        self.publisher = node.create_publisher(
+            MarkerArray, TAIL_MARKERS.name, qos_profile(TAIL_MARKERS)
+        )
         #: (engine state, header stamp) of the newest input; set by the node per message.
-        self.latest = None
+        self.latest: tuple[LinkageState, Time] | None = None
         self.trail: deque[tuple[float, float]] = deque(maxlen=trail_length)
-        self.timer = None
+        self.timer: Timer | None = None
         self.published = 0
-        self._trail_source = None
+        self._trail_source: LinkageState | None = None
         self._delete_all = True
         self._static_markers: dict[str, Marker] = {}
         self.set_rate(rate_hz)
@@ -111,9 +123,9 @@ class TailMarkerPublisher:
         """Keep the last ``length`` tip positions (the newest ones are kept on shrinking)."""
         self.trail = deque(self.trail, maxlen=length)
 
-    def reset(self, geometry: OscillatoryGeometry | UndulatoryGeometry) -> None:
+    def reset(self, tail: Tail) -> None:
         """A new geometry (maybe a new mechanism): forget the state and trail, clear RViz."""
-        self.geometry = geometry
+        self.tail = tail
         self.latest = None
         self._trail_source = None
         self.trail.clear()
@@ -133,13 +145,13 @@ class TailMarkerPublisher:
             return
         self.publisher.publish(self.build(state, stamp))
 
-    def build(self, state, stamp: Time) -> MarkerArray:
+    def build(self, state: LinkageState, stamp: Time) -> MarkerArray:
         """The MarkerArray for ``state`` with the current trail."""
         markers = []
         if self._delete_all:
             markers.append(delete_all_marker(self.frame_id, stamp))
             self._delete_all = False
-        for spec in build_markers(self.geometry, state, list(self.trail)):
+        for spec in build_markers(self.tail, state, list(self.trail)):
             marker = self._static_markers.get(spec.namespace)
             if marker is None:
                 marker = marker_message(spec, self.frame_id, stamp)

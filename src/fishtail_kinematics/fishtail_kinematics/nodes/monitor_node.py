@@ -28,21 +28,33 @@ from __future__ import annotations
 
 import math
 import sys
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
 
+from fishtail_common.interface import (
+    DIAGNOSTICS,
+    MOTOR_CMD_SPEED,
+    TAIL_STATE,
+    TAIL_SYMMETRY,
+    Level,
+)
+from fishtail_common.parameters import ParameterSpec, ParameterValue
+from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_kinematics.engine.geometry import MECHANISM_CODES
 from fishtail_kinematics.engine.input_guard import (
     GUARD_PARAMETERS,
     GUARD_REASONS,
     REASON_TEXT,
+    STALE_TIMEOUT,
     CarrierGuard,
     DropCounts,
     input_status,
 )
+from fishtail_kinematics.engine.mechanisms import TAIL_TYPES
 from fishtail_kinematics.engine.stream_timing import StreamTiming
 from fishtail_kinematics.engine.swimming import (
     SWIMMING_PARAMETERS,
@@ -52,27 +64,42 @@ from fishtail_kinematics.engine.swimming import (
     figures_from_kinematics,
 )
 from fishtail_kinematics.engine.symmetry import (
+    GAP_RESET,
+    HYSTERESIS,
+    SYMMETRY_PARAMETERS,
+    TOLERANCE_PARAMETERS,
     BeatStatistics,
     BeatTracker,
     SymmetryTolerances,
     Verdict,
     judge,
 )
-from fishtail_kinematics.nodes.ros_common import (
-    LEVEL_STALE,
-    diagnostic_array_of,
-    diagnostic_status,
-    float_descriptor,
-    run_node,
-)
 from fishtail_msgs.msg import SymmetryReport, TailState
 
-_TOLERANCE_NAMES = tuple(f.name for f in SymmetryTolerances.__dataclass_fields__.values())
 # Speeds below this are "not commanded" (a beat would take longer than ~2 minutes).
 _MIN_COMMANDED_SPEED_RAD_S = 0.05
-_SWIMMING_PARAMETERS = SWIMMING_PARAMETERS
-INPUT_TOPIC = "tail/state"
+INPUT_TOPIC = TAIL_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
+BEAT_TIMEOUT = ParameterSpec(
+    "beat_timeout_sec",
+    5.0,
+    "ERROR when commanded but no beat for max(this, 2 expected periods)",
+    "s",
+    0.5,
+    3600.0,
+)
+#: Every parameter of the node.
+PARAMETERS: tuple[ParameterSpec, ...] = (
+    *SYMMETRY_PARAMETERS,
+    STALE_TIMEOUT,
+    BEAT_TIMEOUT,
+    *GUARD_PARAMETERS,
+    *SWIMMING_PARAMETERS,
+)
+#: The TailState field of the last link's angle, by TailState mechanism code.
+_FIN_ANGLE_FIELD = {
+    MECHANISM_CODES[name]: tail.fin_angle_field() for name, tail in TAIL_TYPES.items()
+}
 
 
 def _finite(value: float) -> float:
@@ -81,58 +108,22 @@ def _finite(value: float) -> float:
     return value if math.isfinite(value) else 0.0
 
 
-class MonitorNode(Node):
+class MonitorNode(SuiteNodeBase):
     """Thin shell around :class:`BeatTracker` and :func:`judge`."""
 
     def __init__(self) -> None:
         """Declare parameters and wire topics."""
         super().__init__("monitor")
-        defaults = SymmetryTolerances()
-        for name in _TOLERANCE_NAMES:
-            unit = "rad" if name.endswith("_rad") else "share of the beat, |share - 0.5|"
-            level = "WARN" if "warn" in name else "ERROR"
-            self.declare_parameter(
-                name,
-                getattr(defaults, name),
-                float_descriptor(f"{level} above this [{unit}]", 0.0, 1.0),
-            )
-        self.declare_parameter(
-            "hysteresis_rad", 0.01,
-            float_descriptor("theta3 must go below -hysteresis before an upward zero crossing "
-                             "counts as a new beat [rad]", 0.0, 0.5),
-        )  # fmt: skip
-        self.declare_parameter(
-            "stale_timeout_sec", 2.0,
-            float_descriptor("STALE after this long without tail/state [s]", 0.1, 600.0),
-        )  # fmt: skip
-        self.declare_parameter(
-            "beat_timeout_sec", 5.0,
-            float_descriptor("ERROR when commanded but no beat for max(this, 2 expected periods)"
-                             " [s]", 0.5, 3600.0),
-        )  # fmt: skip
-        self.declare_parameter(
-            "gap_reset_sec", 0.5,
-            float_descriptor("a gap in tail/state longer than this restarts the beat [s]",
-                             0.01, 60.0),
-        )  # fmt: skip
-        for name, (default, text, low, high) in GUARD_PARAMETERS.items():
-            self.declare_parameter(name, default, float_descriptor(text, low, high))
-        for name, (default, text, low, high) in _SWIMMING_PARAMETERS.items():
-            self.declare_parameter(name, default, float_descriptor(text, low, high))
+        values = declare(self, PARAMETERS)
         self.tolerances = self._tolerances_from({})
         self.swimming_parameters = self._swimming_parameters_from({})
         self.tip_samples = TipSampleBuffer()
         self.last_tip_kinematics: TipKinematics | None = None
-        self.tracker = BeatTracker(self.get_parameter("hysteresis_rad").value)
+        self.tracker = BeatTracker(float(values[HYSTERESIS.name]))
         # Read on every tail/state message (1 kHz), so kept here rather than looked up each time.
-        self.gap_reset_sec = self.get_parameter("gap_reset_sec").value
+        self.gap_reset_sec = float(values[GAP_RESET.name])
         self.guard = CarrierGuard()
-        self.guard.apply_parameters(
-            {
-                name: self.get_parameter(name).value
-                for name in (*GUARD_PARAMETERS, "stale_timeout_sec")
-            }
-        )
+        self.guard.apply_parameters(values)
         self.drops = DropCounts(GUARD_REASONS)
         self._drop_log = {
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
@@ -152,30 +143,35 @@ class MonitorNode(Node):
 
         # Transient local: a subscriber that joins late still gets the latest verdict.
         self.report_publisher = self.create_publisher(
-            SymmetryReport,
-            "tail/symmetry",
-            QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+            SymmetryReport, TAIL_SYMMETRY.name, qos_profile(TAIL_SYMMETRY)
         )
-        self.diagnostics_publisher = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_subscription(TailState, "tail/state", self._on_state, qos_profile_sensor_data)
-        self.create_subscription(Float64, "motor/cmd_speed", self._on_command, 10)
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+        )
+        self.create_subscription(TailState, INPUT_TOPIC, self._on_state, qos_profile(TAIL_STATE))
+        self.create_subscription(
+            Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
+        )
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.get_logger().info("monitor up")
 
-    def _tolerances_from(self, changed: dict) -> SymmetryTolerances:
-        values = {
-            name: changed.get(name, self.get_parameter(name).value) for name in _TOLERANCE_NAMES
+    def _current(
+        self, specs: tuple[ParameterSpec, ...], changed: dict[str, ParameterValue]
+    ) -> dict[str, ParameterValue]:
+        """The values of ``specs``: as ``changed`` sets them, else as they are."""
+        return {
+            spec.name: changed.get(spec.name, self.get_parameter(spec.name).value)
+            for spec in specs
         }
-        return SymmetryTolerances(**values)
 
-    def _swimming_parameters_from(self, changed: dict) -> SwimmingParameters:
-        return SwimmingParameters(
-            **{name: changed.get(name, self.get_parameter(name).value) for name in
-               _SWIMMING_PARAMETERS}
-        )  # fmt: skip
+    def _tolerances_from(self, changed: dict[str, ParameterValue]) -> SymmetryTolerances:
+        return SymmetryTolerances(**self._current(TOLERANCE_PARAMETERS, changed))  # type: ignore[arg-type]
 
-    def _on_set_parameters(self, parameters) -> SetParametersResult:
+    def _swimming_parameters_from(self, changed: dict[str, ParameterValue]) -> SwimmingParameters:
+        return SwimmingParameters.from_values(self._current(SWIMMING_PARAMETERS, changed))
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
         try:
             tolerances = self._tolerances_from(changed)
@@ -184,10 +180,10 @@ class MonitorNode(Node):
             return SetParametersResult(successful=False, reason=str(error))
         self.tolerances = tolerances
         self.swimming_parameters = swimming
-        if "hysteresis_rad" in changed:
+        if HYSTERESIS.name in changed:
             # Takes effect at the next arming; the beat count and the beat in progress stay.
-            self.tracker.hysteresis_rad = changed["hysteresis_rad"]
-        self.gap_reset_sec = changed.get("gap_reset_sec", self.gap_reset_sec)
+            self.tracker.hysteresis_rad = changed[HYSTERESIS.name]
+        self.gap_reset_sec = changed.get(GAP_RESET.name, self.gap_reset_sec)
         self.guard.apply_parameters(changed)
         return SetParametersResult(successful=True)
 
@@ -205,7 +201,7 @@ class MonitorNode(Node):
         if self.last_command_ns is None:
             return False
         age_s = (now_ns - self.last_command_ns) * 1e-9
-        return age_s < self.get_parameter("stale_timeout_sec").value and (
+        return age_s < self.get_parameter(STALE_TIMEOUT.name).value and (
             self.commanded_speed > _MIN_COMMANDED_SPEED_RAD_S
         )
 
@@ -216,9 +212,7 @@ class MonitorNode(Node):
         theta3 = message.theta3
         tip_y = message.tip.y
         tip_y_velocity = message.tip_velocity.y
-        fin_angle = (
-            message.theta5 if message.mechanism == TailState.MECHANISM_UNDULATORY else theta3
-        )
+        fin_angle = getattr(message, _FIN_ANGLE_FIELD.get(message.mechanism, "theta3"))
         reason = self.guard.check(
             stamp.sec * 1_000_000_000 + stamp.nanosec,
             message.motor_angle,
@@ -245,7 +239,9 @@ class MonitorNode(Node):
             kinematics = self.tip_samples.complete(beat)
             self._publish_beat(beat, stamp, kinematics)
 
-    def _publish_beat(self, beat: BeatStatistics, stamp, kinematics: TipKinematics | None) -> None:
+    def _publish_beat(
+        self, beat: BeatStatistics, stamp: Any, kinematics: TipKinematics | None
+    ) -> None:
         verdict, text = judge(beat, self.tolerances)
         self.last_beat = beat
         if verdict == Verdict.NOT_JUDGED:
@@ -282,15 +278,16 @@ class MonitorNode(Node):
             "beats": str(self.tracker.beats_completed),
             "beats_not_judged": str(self.beats_not_judged),
         }
-        stale_after = self.get_parameter("stale_timeout_sec").value
+        stale_after = self.get_parameter(STALE_TIMEOUT.name).value
         stale = self.last_input_ns is None or (now_ns - self.last_input_ns) * 1e-9 > stale_after
         commanded = self._commanded(now_ns)
+        level: int
         if stale:
-            level, text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
+            level, text = Level.STALE, f"no {INPUT_TOPIC} received recently"
         elif commanded and self._beat_overdue(now_ns):
             waited = (now_ns - self.last_progress_ns) * 1e-9
             level, text = (
-                int(Verdict.ERROR),
+                Level.ERROR,
                 f"motor commanded at {self.commanded_speed:.3g} rad/s but no tail beat completed "
                 f"in {waited:.1f} s",
             )
@@ -319,13 +316,13 @@ class MonitorNode(Node):
             INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
         )
         if stale:
-            input_level, input_text = LEVEL_STALE, f"no {INPUT_TOPIC} received recently"
+            input_level, input_text = Level.STALE, f"no {INPUT_TOPIC} received recently"
         # The verdict last: a reader that keeps the latest status of this node keeps the verdict.
-        statuses = [
-            diagnostic_status(self, f"{INPUT_TOPIC} input", input_level, input_text, input_values),
-            diagnostic_status(self, "tail swing symmetry", level, text, values),
-        ]
-        self.diagnostics_publisher.publish(diagnostic_array_of(self, statuses))
+        array = diagnostic_array(
+            self, f"{INPUT_TOPIC} input", input_level, input_text, input_values
+        )
+        array.status += diagnostic_array(self, "tail swing symmetry", level, text, values).status
+        self.diagnostics_publisher.publish(array)
 
     def _verdict_status(self) -> tuple[int, str]:
         """Level and message from the latest judged beat, saying if later beats were not judged.
@@ -348,8 +345,8 @@ class MonitorNode(Node):
 
     def _beat_overdue(self, now_ns: int) -> bool:
         expected_period_s = 2.0 * math.pi / self.commanded_speed
-        allowed_s = max(self.get_parameter("beat_timeout_sec").value, 2.0 * expected_period_s)
-        return (now_ns - self.last_progress_ns) * 1e-9 > allowed_s
+        allowed_s = max(self.get_parameter(BEAT_TIMEOUT.name).value, 2.0 * expected_period_s)
+        return bool((now_ns - self.last_progress_ns) * 1e-9 > allowed_s)
 
 
 def main() -> int:

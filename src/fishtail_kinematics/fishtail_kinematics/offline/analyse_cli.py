@@ -15,8 +15,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
-from fishtail_kinematics.offline.analysis import AnalysisError, analyse, format_report
-from fishtail_kinematics.offline.cli import OneLineErrorParser
+from fishtail_kinematics.engine.swimming import SWIMMING_PARAMETERS
+from fishtail_kinematics.offline.analysis import analyse
+from fishtail_kinematics.offline.analysis_report import format_report
+from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
+from fishtail_kinematics.offline.recording import AnalysisError
 
 PROGRAM = "fishtail-analyse"
 
@@ -25,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
     parser = OneLineErrorParser(
         prog=PROGRAM,
-        description=__doc__.splitlines()[0],
+        description=(__doc__ or "").splitlines()[0],
         epilog="Exit status: 0 done, 1 the recording disagrees with the engine, 2 bad input.",
     )
     parser.add_argument(
@@ -50,18 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
     swimming = parser.add_argument_group(
         "swimming figures (override --config; defaults are the monitor's)"
     )
-    for name, help_text in (
-        ("forward_speed_m_s", "forward speed U for St and thrust [m/s]"),
-        ("fin_span_m", "fin span at the trailing edge [m]"),
-        ("water_density_kg_m3", "water density [kg/m^3]"),
-    ):
-        swimming.add_argument(
-            "--" + name.replace("_", "-"), dest=name, type=float, metavar="X", help=help_text
-        )
+    add_parameter_flags(swimming, SWIMMING_PARAMETERS, float)
     return parser
-
-
-SWIMMING_OPTIONS = ("forward_speed_m_s", "fin_span_m", "water_density_kg_m3")
 
 
 def _allow_many_open_files() -> None:
@@ -86,9 +79,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     _allow_many_open_files()
     try:
         overrides = {
-            name: getattr(arguments, name)
-            for name in SWIMMING_OPTIONS
-            if getattr(arguments, name) is not None
+            spec.name: getattr(arguments, spec.name)
+            for spec in SWIMMING_PARAMETERS
+            if getattr(arguments, spec.name) is not None
         }
         report = analyse(
             arguments.recording,

@@ -3,8 +3,8 @@
 Frame k shows the linkage at carrier angle phi_k = 2 pi k / N: the ring gear and its two
 diameters, the planet with its carrier crank and the diameter whose ends slide on them, the
 Cardan point, every link and joint, and the tip's trail so far over its whole path. The joint
-positions are :func:`fishtail_kinematics.engine.linkage_points.linkage_points` of the engine's
-solution, so the picture is exactly what the engine computes.
+positions are the tail's :meth:`~fishtail_kinematics.engine.mechanisms.Tail.link_points` of the
+engine's solution, so the picture is exactly what the engine computes.
 
 matplotlib (Agg) draws the still parts (axes, ring, guides, tip path, legend) once and blits the
 moving parts onto a copy of that background for each frame; Pillow writes the frames as a looping
@@ -20,8 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fishtail_kinematics.engine.linkage_points import OscillatoryPoints, linkage_points
-from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry, UndulatoryGeometry, make_tail
+from fishtail_kinematics.engine.mechanisms import Tail
 
 #: GIF frame delays are whole centiseconds and viewers slow anything under 2 cs down.
 MAX_FPS = 50.0
@@ -39,35 +38,15 @@ def _pyplot():
     return plt
 
 
-def _link_paths(points) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
-    """(drive link polylines, tail link polyline, moving joints) for each frame, as arrays."""
-    if isinstance(points, OscillatoryPoints):
-        drive = [np.stack((points.cardan, points.joint_r, points.pivot_s), axis=1)]
-        tail = np.stack((points.pivot_s, points.tip), axis=1)
-        joints = np.stack((points.joint_r, points.tip), axis=1)
-    else:
-        drive = [
-            np.stack((points.cardan, points.joint_r, points.pivot_s, points.joint_w), axis=1),
-            np.stack((points.slider_a, points.joint_v), axis=1),
-        ]
-        tail = np.stack((points.joint_v, points.tip), axis=1)
-        joints = np.stack(
-            (points.joint_r, points.pin_u, points.slider_a, points.joint_v, points.joint_w,
-             points.tip),
-            axis=1,
-        )  # fmt: skip
-    return drive, tail, joints
-
-
 def animate_cycle(
-    geometry: OscillatoryGeometry | UndulatoryGeometry,
+    tail: Tail,
     path: Path,
     frames: int = 72,
     fps: float = 24.0,
     title: str = "",
     dpi: int = 90,
 ) -> Path:
-    """Write one carrier revolution of ``geometry`` as a GIF of ``frames`` frames at ``fps``."""
+    """Write one carrier revolution of ``tail`` as a GIF of ``frames`` frames at ``fps``."""
     if not 2 <= frames <= MAX_FRAMES:
         raise ValueError(f"frames must be between 2 and {MAX_FRAMES}, got {frames}")
     if not (math.isfinite(fps) and 0.0 < fps <= MAX_FPS):
@@ -75,13 +54,14 @@ def animate_cycle(
     from PIL import Image
 
     plt = _pyplot()
-    tail = make_tail(geometry)
     angles = np.arange(frames) * (2.0 * math.pi / frames)
-    points = linkage_points(geometry, tail.solve(angles, 0.0))
+    points = tail.link_points(tail.solve(angles, 0.0))
     # The full tip path, finely sampled, for the faint outline and the axis limits.
-    fine = linkage_points(geometry, tail.solve(np.linspace(0.0, 2.0 * math.pi, 721), 0.0))
-    drive, tail_link, joints = _link_paths(points)
-    ring = geometry.ring_radius_m
+    fine = tail.link_points(tail.solve(np.linspace(0.0, 2.0 * math.pi, 721), 0.0))
+    drive = points.drive_links()
+    tail_link = points.tail_link()
+    joints = points.moving_joints()
+    ring = tail.geometry.ring_radius_m
 
     figure, axes = plt.subplots(figsize=(8.6, 4.6))
     every = np.concatenate([np.asarray(p).reshape(-1, 2) for p in fine] + [[[-ring, -ring]]])

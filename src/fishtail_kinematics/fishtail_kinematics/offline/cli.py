@@ -11,59 +11,37 @@ import argparse
 import csv
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
 from fishtail_kinematics.engine import design
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
-from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
-from fishtail_kinematics.engine.parameters import (
+from fishtail_kinematics.engine.geometry import (
     GEOMETRY_PARAMETERS,
-    MECHANISM_PARAMETER,
-    MECHANISMS,
+    FloatArray,
+    Geometry,
+    LinkageState,
+)
+from fishtail_kinematics.engine.mechanisms import Tail, make_tail
+from fishtail_kinematics.engine.parameters import (
+    MECHANISM,
     geometry_from_parameters,
     geometry_parameters_in,
-    load_parameter_file,
-    mechanism_of,
 )
 from fishtail_kinematics.offline import animation, plots
+from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
+from fishtail_kinematics.offline.parameter_files import load_parameter_file
+from fishtail_kinematics.offline.table_columns import FIELD_OF_COLUMN, table_columns
 
 PROGRAM = "fishtail-kinematics"
 REPORT_SPEED_RAD_S = 4.0
 
-OSCILLATORY_COLUMNS = (
-    "motor_angle_rad",
-    "OP",
-    "theta1",
-    "theta2",
-    "theta3",
-    "theta3_dot",
-    "Tx",
-    "Ty",
-)
-UNDULATORY_COLUMNS = (*OSCILLATORY_COLUMNS, "theta4", "AU", "AS", "theta5", "theta5_dot")
-_FIELD_OF_COLUMN = {
-    "motor_angle_rad": "motor_angle",
-    "OP": "slider_position",
-    "Tx": "tip_x",
-    "Ty": "tip_y",
-    "AU": "pin_u_distance",
-    "AS": "slider_a_distance",
-}
-
 
 class UsageError(Exception):
     """Bad command-line input; reported as one line with exit status 2."""
-
-
-class OneLineErrorParser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (the usage text stays behind --help)."""
-
-    def error(self, message: str):
-        """Print ``prog: error: message`` and exit with status 2."""
-        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
 
 
 def _positive_int(text: str) -> int:
@@ -127,16 +105,9 @@ def build_parser() -> argparse.ArgumentParser:
     group.add_argument(
         "--config", type=Path, help="ROS 2 parameter file, e.g. config/oscillatory.yaml"
     )
-    group.add_argument("--mechanism", choices=MECHANISMS)
-    for spec in GEOMETRY_PARAMETERS:
-        group.add_argument(
-            "--" + spec.name.replace("_", "-"),
-            dest=spec.name,
-            type=_number,
-            metavar=spec.unit.upper(),
-            help=f"{spec.symbol}: {spec.description} (default {spec.default:.6g})",
-        )
-    parser = OneLineErrorParser(prog=PROGRAM, description=__doc__.splitlines()[0])
+    group.add_argument("--" + MECHANISM.name, choices=MECHANISM.choices, help=MECHANISM.text)
+    add_parameter_flags(group, GEOMETRY_PARAMETERS, _number)
+    parser = OneLineErrorParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     table = commands.add_parser("table", parents=[geometry], help="one cycle as CSV")
     table.add_argument("--samples", type=_positive_int, default=36, help="angles k*2pi/N (36)")
@@ -161,13 +132,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def geometry_from_arguments(arguments: argparse.Namespace):
+def geometry_from_arguments(arguments: argparse.Namespace) -> Geometry:
     """Merge --config and flags into a validated geometry."""
     values: dict[str, object] = {}
     if arguments.config is not None:
         values.update(geometry_parameters_in(load_parameter_file(arguments.config)))
     if arguments.mechanism is not None:
-        values[MECHANISM_PARAMETER] = arguments.mechanism
+        values[MECHANISM.name] = arguments.mechanism
     for spec in GEOMETRY_PARAMETERS:
         value = getattr(arguments, spec.name)
         if value is not None:
@@ -175,24 +146,24 @@ def geometry_from_arguments(arguments: argparse.Namespace):
     return geometry_from_parameters(values)
 
 
-def _cycle(tail, samples: int, speed: float):
-    angles = np.arange(samples) * (2.0 * math.pi / samples)
+def _cycle(tail: Tail, samples: int, speed: float) -> tuple[FloatArray, LinkageState]:
+    angles: FloatArray = np.arange(samples) * (2.0 * math.pi / samples)
     return angles, tail.solve(angles, speed)
 
 
-def run_table(arguments: argparse.Namespace, out) -> None:
+def run_table(arguments: argparse.Namespace, out: TextIO) -> None:
     """Write one carrier cycle as CSV."""
     tail = make_tail(geometry_from_arguments(arguments))
     _, state = _cycle(tail, arguments.samples, arguments.speed)
-    columns = UNDULATORY_COLUMNS if isinstance(tail, UndulatoryTail) else OSCILLATORY_COLUMNS
-    data = [np.asarray(getattr(state, _FIELD_OF_COLUMN.get(c, c))) for c in columns]
+    columns = table_columns(tail.state_fields)
+    data = [np.asarray(getattr(state, FIELD_OF_COLUMN[c])) for c in columns]
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(columns)
     for row in zip(*data, strict=True):
         writer.writerow([f"{value:.12g}" for value in row])
 
 
-def run_plot(arguments: argparse.Namespace, out) -> None:
+def run_plot(arguments: argparse.Namespace, out: TextIO) -> None:
     """Write the report's figures for this geometry."""
     if arguments.speed <= 0.0:
         raise UsageError("plot needs a positive --speed for its time axis")
@@ -200,7 +171,7 @@ def run_plot(arguments: argparse.Namespace, out) -> None:
     tail = make_tail(geometry)
     angles, state = _cycle(tail, arguments.samples, arguments.speed)
     time_s = plots.cycle_time(angles, arguments.speed)
-    title = f"{mechanism_of(geometry)}, {arguments.speed:g} rad/s"
+    title = f"{tail.name}, {arguments.speed:g} rad/s"
     directory = arguments.output_dir
     try:
         directory.mkdir(parents=True, exist_ok=True)
@@ -208,11 +179,17 @@ def run_plot(arguments: argparse.Namespace, out) -> None:
         raise UsageError(f"cannot create {directory}: {error.strerror}") from None
     written = [
         plots.plot_tail_angle(
-            time_s, state.theta3, state.theta3_dot, directory / "theta3.png", title
+            time_s,
+            np.asarray(state.theta3),
+            np.asarray(state.theta3_dot),
+            directory / "theta3.png",
+            title,
         ),
-        plots.plot_tip_path(state.tip_x, state.tip_y, directory / "tip_path.png", title),
+        plots.plot_tip_path(
+            np.asarray(state.tip_x), np.asarray(state.tip_y), directory / "tip_path.png", title
+        ),
     ]
-    drive_geometry = geometry.drive() if isinstance(tail, UndulatoryTail) else geometry
+    drive_geometry = tail.drive.geometry
     offsets = np.linspace(0.5 * geometry.pivot_offset_m, 1.6 * geometry.pivot_offset_m, 221)
     written.append(
         plots.plot_swing_range(
@@ -224,40 +201,42 @@ def run_plot(arguments: argparse.Namespace, out) -> None:
             title,
         )
     )
-    if isinstance(tail, UndulatoryTail):
+    if tail.fin_joint is not None:
         fit = design.fit_fin_ratio(geometry)
         written.append(
             plots.plot_fin_angles(
-                time_s, state.theta3, state.theta5, fit.mu, directory / "theta3_theta5.png", title
+                time_s,
+                np.asarray(state.theta3),
+                np.asarray(getattr(state, tail.fin_joint)),
+                fit.mu,
+                directory / "theta3_theta5.png",
+                title,
             )
         )
     for path in written:
         print(path, file=out)
 
 
-def run_design(arguments: argparse.Namespace, out) -> None:
+def run_design(arguments: argparse.Namespace, out: TextIO) -> None:
     """Print the design figures of a geometry, one `name: value` a line."""
     geometry = geometry_from_arguments(arguments)
     summary = design.design_summary(geometry)
-    print(f"mechanism: {mechanism_of(geometry)}", file=out)
+    print(f"mechanism: {geometry.mechanism}", file=out)
     for name, value in summary.items():
         text = f"{value:.9g}" if isinstance(value, float) else str(value)
         print(f"{name}: {text}", file=out)
 
 
-def run_animate(arguments: argparse.Namespace, out) -> None:
+def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
     """Write one carrier revolution as an animated GIF and print its path."""
     path = arguments.gif_path
     if path.suffix.lower() != ".gif":
         raise UsageError(f"--output must name a .gif file, got {path}")
-    geometry = geometry_from_arguments(arguments)
-    make_tail(geometry)  # an infeasible geometry fails here, before any drawing
+    tail = make_tail(geometry_from_arguments(arguments))  # fails before any drawing
     if not path.parent.is_dir():
         raise UsageError(f"cannot write {path}: no directory {path.parent}")
     try:
-        animation.animate_cycle(
-            geometry, path, arguments.frames, arguments.fps, f"{mechanism_of(geometry)} tail"
-        )
+        animation.animate_cycle(tail, path, arguments.frames, arguments.fps, f"{tail.name} tail")
     except OSError as error:
         raise UsageError(f"cannot write {path}: {error.strerror or error}") from None
     print(path, file=out)
@@ -267,7 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``fishtail-kinematics``."""
     parser = build_parser()
     arguments = parser.parse_args(argv)
-    command = {
+    command: Callable[[argparse.Namespace, TextIO], None] = {
         "table": run_table,
         "plot": run_plot,
         "design": run_design,

@@ -16,7 +16,7 @@ from fishtail_kinematics.engine.design import (
     symmetric_rocker_link,
 )
 from fishtail_kinematics.engine.errors import DesignError
-from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 
 REPORT_RS = math.sqrt(0.1**2 + 0.2 * math.hypot(0.2, 0.1))
 # The symmetric RS of this drive leaves theta2 non-monotone (stationary inside the stroke).

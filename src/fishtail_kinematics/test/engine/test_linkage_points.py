@@ -11,17 +11,9 @@ import math
 import numpy as np
 import pytest
 
-from fishtail_kinematics.engine.linkage_points import (
-    OscillatoryPoints,
-    UndulatoryPoints,
-    linkage_points,
-)
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-)
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.linkage_points import OscillatoryPoints, UndulatoryPoints
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 
 CYCLE = np.linspace(0.0, 2.0 * math.pi, 721)
 TOLERANCE_M = 1e-12
@@ -73,8 +65,9 @@ def assert_cardan_couple(points, g, phi):
 
 @pytest.mark.parametrize("g", [OscillatoryGeometry(), OTHER_OSCILLATORY])
 def test_oscillatory_links_keep_their_lengths_over_a_cycle(g):
-    state = OscillatoryTail(g).solve(CYCLE, 4.0)
-    p = linkage_points(g, state)
+    tail = OscillatoryTail(g)
+    state = tail.solve(CYCLE, 4.0)
+    p = tail.link_points(state)
     assert isinstance(p, OscillatoryPoints)
     assert p.tip.shape == (CYCLE.size, 2)
     assert_cardan_couple(p, g, CYCLE)
@@ -98,8 +91,9 @@ def test_oscillatory_links_keep_their_lengths_over_a_cycle(g):
 
 @pytest.mark.parametrize("g", [UndulatoryGeometry(), OTHER_UNDULATORY])
 def test_undulatory_links_keep_their_lengths_and_pins_stay_on_their_links(g):
-    state = UndulatoryTail(g).solve(CYCLE, 4.0)
-    p = linkage_points(g, state)
+    tail = UndulatoryTail(g)
+    state = tail.solve(CYCLE, 4.0)
+    p = tail.link_points(state)
     assert isinstance(p, UndulatoryPoints)
     assert_cardan_couple(p, g, CYCLE)
     assert_length(p.cardan, p.joint_r, g.crank_link_m)
@@ -128,9 +122,9 @@ def test_undulatory_links_keep_their_lengths_and_pins_stay_on_their_links(g):
 )
 def test_scalar_states_give_single_points_equal_to_the_array_path(g, tail_class):
     tail = tail_class(g)
-    batch = linkage_points(g, tail.solve(CYCLE[:50], 4.0))
+    batch = tail.link_points(tail.solve(CYCLE[:50], 4.0))
     for index in (0, 17, 49):
-        single = linkage_points(g, tail.solve(float(CYCLE[index]), 4.0))
+        single = tail.link_points(tail.solve(float(CYCLE[index]), 4.0))
         for name, point in single._asdict().items():
             assert point.shape == (2,), name
             np.testing.assert_allclose(point, getattr(batch, name)[index], atol=1e-12)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fishtail_kinematics.engine.linkage_points import linkage_points
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.markers import (
     LINE_LIST,
     LINE_STRIP,
@@ -12,12 +12,7 @@ from fishtail_kinematics.engine.markers import (
     STATIC_NAMESPACES,
     build_markers,
 )
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-)
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 
 COMMON_NAMESPACES = ["ring", "guides", "planet", "carrier", "cardan_point", "links", "tail_link",
                      "joints", "pivots"]  # fmt: skip
@@ -36,10 +31,11 @@ def segment_lengths(points):
 
 def test_oscillatory_markers_draw_the_solved_linkage():
     g = OscillatoryGeometry()
-    state = OscillatoryTail(g).solve(1.1, 4.0)
-    specs = by_namespace(build_markers(g, state, [(0.3, 0.0), (0.31, 0.01), (0.32, 0.02)]))
+    tail = OscillatoryTail(g)
+    state = tail.solve(1.1, 4.0)
+    specs = by_namespace(build_markers(tail, state, [(0.3, 0.0), (0.31, 0.01), (0.32, 0.02)]))
     assert list(specs) == [*COMMON_NAMESPACES, "tip_trail"]
-    points = linkage_points(g, state)
+    points = tail.link_points(state)
     ring = specs["ring"]
     assert ring.kind == LINE_STRIP
     np.testing.assert_allclose(np.hypot(*ring.points.T), g.ring_radius_m, atol=1e-15)
@@ -68,8 +64,8 @@ def test_oscillatory_markers_draw_the_solved_linkage():
 
 def test_undulatory_markers_draw_every_link_and_joint():
     g = UndulatoryGeometry()
-    state = UndulatoryTail(g).solve(2.5, 4.0)
-    specs = by_namespace(build_markers(g, state))
+    tail = UndulatoryTail(g)
+    specs = by_namespace(build_markers(tail, tail.solve(2.5, 4.0)))
     assert list(specs) == COMMON_NAMESPACES  # no trail yet
     np.testing.assert_allclose(
         segment_lengths(specs["links"].points),
@@ -83,9 +79,9 @@ def test_undulatory_markers_draw_every_link_and_joint():
 def test_trail_needs_two_points_and_static_markers_do_not_depend_on_the_state():
     g = OscillatoryGeometry()
     tail = OscillatoryTail(g)
-    assert "tip_trail" not in by_namespace(build_markers(g, tail.solve(0.0), [(0.3, 0.0)]))
-    first = by_namespace(build_markers(g, tail.solve(0.0)))
-    second = by_namespace(build_markers(g, tail.solve(2.0)))
+    assert "tip_trail" not in by_namespace(build_markers(tail, tail.solve(0.0), [(0.3, 0.0)]))
+    first = by_namespace(build_markers(tail, tail.solve(0.0)))
+    second = by_namespace(build_markers(tail, tail.solve(2.0)))
     for name in STATIC_NAMESPACES:
         np.testing.assert_array_equal(first[name].points, second[name].points)
     assert not np.allclose(first["links"].points, second["links"].points)

@@ -18,12 +18,8 @@ from fishtail_kinematics.engine.errors import (
     InvalidLengthError,
     PinOffsetError,
 )
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-)
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 
 TWO_PI = 2.0 * math.pi
 CYCLE = np.linspace(0.0, TWO_PI, 4001)

@@ -7,12 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-)
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 from fishtail_kinematics.engine.swimming import (
     SwimmingParameters,
     TipSampleBuffer,

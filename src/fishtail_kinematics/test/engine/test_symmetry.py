@@ -8,7 +8,8 @@ import random
 import numpy as np
 import pytest
 
-from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry, OscillatoryTail
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail
 from fishtail_kinematics.engine.symmetry import (
     BeatTracker,
     SymmetryTolerances,

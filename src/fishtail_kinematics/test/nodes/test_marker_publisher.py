@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry
+from fishtail_common.interface import TAIL_MARKERS
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.nodes import marker_publisher
 
 ROOT = Path(__file__).resolve().parents[4]
@@ -30,7 +31,7 @@ def test_rviz_config_shows_the_markers_in_the_tail_frame():
     assert manager["Global Options"]["Fixed Frame"] == "tail_mechanism"
     displays = {display["Class"]: display for display in manager["Displays"]}
     markers = displays["rviz_default_plugins/MarkerArray"]
-    assert markers["Topic"]["Value"] == "/" + marker_publisher.MARKERS_TOPIC
+    assert markers["Topic"]["Value"] == "/" + TAIL_MARKERS.name
     assert markers["Enabled"] is True
     assert manager["Views"]["Current"]["Class"] == "rviz_default_plugins/TopDownOrtho"
 

@@ -13,12 +13,8 @@ import time
 import numpy as np
 import pytest
 
-from fishtail_kinematics.engine.mechanisms import (
-    OscillatoryGeometry,
-    OscillatoryTail,
-    UndulatoryGeometry,
-    UndulatoryTail,
-)
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 from fishtail_kinematics.engine.swimming import SwimmingParameters, swimming_figures
 
 pytestmark = pytest.mark.filterwarnings("ignore:module 'sre_:DeprecationWarning")

@@ -13,7 +13,6 @@ import math
 import shutil
 import subprocess
 import sys
-import types
 from pathlib import Path
 
 import numpy as np
@@ -24,13 +23,10 @@ from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
-from fishtail_kinematics.engine.parameters import (
-    geometry_from_parameters,
-    geometry_parameters_in,
-    load_parameter_file,
-)
+from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
 from fishtail_kinematics.engine.symmetry import SymmetryTolerances, Verdict, beats_of, judge
 from fishtail_kinematics.offline import analyse_cli, analysis, cli
+from fishtail_kinematics.offline.parameter_files import load_parameter_file
 
 ROOT = Path(__file__).resolve().parents[4]
 CONFIG = ROOT / "config"
@@ -483,41 +479,22 @@ def test_unwritable_output_dir(store, tmp_path, capsys):
 
 
 # --------------------------------------------------------------------------------------------
-# Purity and the swimming hook
+# Purity and the swimming figures
 
 
 def test_analysis_does_not_import_rclpy():
-    code = "import sys, fishtail_kinematics.offline.analysis; print('rclpy' in sys.modules)"
+    code = "import sys, fishtail_kinematics.offline.analyse_cli; print('rclpy' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip() == "False"
 
 
-def test_swimming_hook_prints_the_figures_when_the_module_exists(
-    store, tmp_path, capsys, monkeypatch
-):
-    calls = []
-
-    def swimming_figures(time_s, tip_y, tip_y_velocity, fin_angle, parameters):
-        calls.append((len(time_s), len(tip_y), len(tip_y_velocity), len(fin_angle), parameters))
-        return "St = 0.3 (fake)"
-
-    fake = types.ModuleType("fishtail_kinematics.engine.swimming")
-    fake.swimming_figures = swimming_figures
-    monkeypatch.setitem(sys.modules, "fishtail_kinematics.engine.swimming", fake)
+def test_swimming_figures_take_the_flags_over_the_monitors_defaults(store, tmp_path, capsys):
     bag = write_bag(store, tmp_path / "bag", seconds=1.0)
     status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f", "--fin-span-m", "0.2")
     assert status == 0
-    assert "swimming (U = 0.3 m/s, fin span 0.2 m, rho = 1000 kg/m^3): St = 0.3 (fake)" in out
-    assert calls[0][:4] == (200, 200, 200, 200)
-    assert calls[0][4] == {"forward_speed_m_s": 0.3, "fin_span_m": 0.2, "water_density_kg_m3": 1e3}
-
-
-def test_no_swimming_section_without_the_module(store, tmp_path, capsys, monkeypatch):
-    monkeypatch.setitem(sys.modules, "fishtail_kinematics.engine.swimming", None)  # import fails
-    bag = write_bag(store, tmp_path / "bag", seconds=1.0)
-    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
-    assert status == 0 and "swimming (" not in out
+    assert "swimming (U = 0.3 m/s, fin span 0.2 m, rho = 1000 kg/m^3): f = " in out
+    assert "St = f A / U = " in out
 
 
 def test_default_output_dir_is_named_after_the_input(store, tmp_path, capsys, monkeypatch):

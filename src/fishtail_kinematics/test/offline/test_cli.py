@@ -13,9 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fishtail_kinematics.engine.mechanisms import OscillatoryGeometry, UndulatoryGeometry
-from fishtail_kinematics.engine.parameters import geometry_from_parameters, load_parameter_file
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
+from fishtail_kinematics.engine.parameters import geometry_from_parameters
 from fishtail_kinematics.offline import cli
+from fishtail_kinematics.offline.parameter_files import load_parameter_file
+from fishtail_kinematics.offline.table_columns import table_columns
 
 CONFIG = Path(__file__).resolve().parents[4] / "config"
 
@@ -50,7 +53,7 @@ def test_table_oscillatory_columns_and_values(capsys):
     )
     assert status == 0 and err == ""
     header, data = rows(out)
-    assert header == list(cli.OSCILLATORY_COLUMNS)
+    assert header == list(table_columns(OscillatoryTail.state_fields))
     assert data.shape == (8, len(header))
     np.testing.assert_allclose(data[:, 0], np.arange(8) * 2 * math.pi / 8, atol=1e-11)
     op = data[:, 1]
@@ -82,7 +85,7 @@ def test_table_undulatory_columns_and_flag_override(capsys, tmp_path):
     )  # fmt: skip
     assert status == 0 and out == ""
     header, data = rows(output.read_text())
-    assert header == list(cli.UNDULATORY_COLUMNS)
+    assert header == list(table_columns(UndulatoryTail.state_fields))
     assert data.shape == (5, 13)
     # AU^2 = (AS + SU cos t3)^2 + (SU sin t3)^2 with the overridden SU = 0.05.
     t3, au, a_s = (data[:, header.index(c)] for c in ("theta3", "AU", "AS"))

@@ -1,0 +1,399 @@
+"""A recording as arrays: a rosbag2 bag (MCAP or sqlite3) or the CSV of the CLI's table.
+
+Which carrier angle: ``motor/joint_state`` (the driver's encoder sample) for every ``tail/state``
+with the same stamp, else the ``motor_angle`` that ``tail/state`` itself carries (the kinematics
+node's input). A bag with ``motor/joint_state`` only is analysed from the recomputed tail.
+
+Every problem with the input (missing, damaged, truncated, empty or foreign bag, bad CSV) raises
+:class:`AnalysisError` with a one-line message.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fishtail_common.bag_types import register_package_types
+from fishtail_common.interface import CARRIER_JOINT, MOTOR_JOINT_STATE, TAIL_STATE, TAIL_SYMMETRY
+from fishtail_kinematics.engine.geometry import MECHANISM_CODES, FloatArray
+from fishtail_kinematics.engine.mechanisms import TAIL_TYPES
+from fishtail_kinematics.offline.table_columns import FIELD_OF_COLUMN
+
+MECHANISM_OF_CODE = {code: name for name, code in MECHANISM_CODES.items()}
+#: TailState field -> engine field, where they differ.
+_ENGINE_FIELD_OF_MESSAGE = {
+    ("tip", "x"): "tip_x",
+    ("tip", "y"): "tip_y",
+    ("tip_velocity", "x"): "tip_x_dot",
+    ("tip_velocity", "y"): "tip_y_dot",
+}
+_MESSAGE_FIELD_OF_ENGINE = {engine: parts for parts, engine in _ENGINE_FIELD_OF_MESSAGE.items()}
+#: Columns a CSV needs to be analysed.
+_REQUIRED_COLUMNS = ("motor_angle_rad", "theta3", "theta3_dot", "Tx", "Ty")
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+class AnalysisError(Exception):
+    """The input cannot be analysed; the message is one line for the user."""
+
+
+@dataclasses.dataclass
+class Recording:
+    """What was read from a bag or a CSV, as arrays in time order.
+
+    ``state`` holds recorded engine fields (empty when the bag has no tail/state); ``carrier_angle``
+    and ``carrier_velocity`` are the engine's inputs, one per sample; ``time_s`` is seconds since
+    the first sample and ``stamp_s`` the absolute stamps (as the monitor computes them).
+    """
+
+    source: Path
+    kind: str  # "bag" or "csv"
+    description: str
+    mechanism: str | None
+    time_s: FloatArray
+    stamp_s: FloatArray
+    carrier_angle: FloatArray
+    carrier_velocity: FloatArray
+    carrier_source: str
+    state: dict[str, FloatArray]
+    monitor_verdicts: list[int] = dataclasses.field(default_factory=list)
+    notes: list[str] = dataclasses.field(default_factory=list)
+    periodic: bool = False  # CSV: one carrier cycle
+
+
+def describe_error(error: BaseException) -> str:
+    """An exception as one line without a trailing full stop."""
+    text = " ".join(str(error).split()) or type(error).__name__
+    return text.rstrip(".")
+
+
+def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
+    """Read a rosbag2 bag (directory, .mcap or .db3) or a CSV of ``fishtail-kinematics table``."""
+    path = Path(path)
+    if not path.exists():
+        raise AnalysisError(f"{path}: no such file or directory")
+    if path.is_dir() or path.suffix in (".mcap", ".db3"):
+        return read_bag(path, namespace)
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(16)
+    except OSError as error:
+        raise AnalysisError(f"{path}: cannot read: {error.strerror}") from None
+    if head.startswith(_MCAP_MAGIC) or head.startswith(_SQLITE_MAGIC):
+        return read_bag(path, namespace)
+    return read_csv(path)
+
+
+# ---- bags
+
+
+def _typestore_for(connections: Sequence[Any]) -> Any:
+    """The Jazzy typestore plus the definitions the bag carries, plus installed fishtail_msgs."""
+    from rosbags.interfaces import MessageDefinitionFormat
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    for connection in connections:
+        definition = connection.msgdef
+        if (
+            connection.msgtype in store.fielddefs
+            or definition.format != MessageDefinitionFormat.MSG
+        ):
+            continue
+        types = get_types_from_msg(definition.data, connection.msgtype)
+        store.register(
+            {name: fields for name, fields in types.items() if name not in store.fielddefs}
+        )
+    try:
+        register_package_types(store, "fishtail_msgs")  # adds only what the bag did not carry
+    except LookupError:
+        pass  # not installed: the bag must carry the definitions (checked by the caller)
+    return store
+
+
+def _pick_topic(
+    connections: Sequence[Any],
+    msgtype: str,
+    suffix: str,
+    namespace: str | None,
+    any_name: bool = True,
+) -> str | None:
+    """The topic of ``msgtype`` named ``<namespace>/<suffix>``.
+
+    Without such a name and with ``any_name``: the one topic of that type, if there is one.
+    """
+    topics = sorted({c.topic for c in connections if c.msgtype == msgtype})
+    if namespace is not None:
+        wanted = "/" + "/".join(p for p in (namespace.strip("/"), suffix) if p)
+        return wanted if wanted in topics else None
+    named = [t for t in topics if t == "/" + suffix or t.endswith("/" + suffix)]
+    candidates = named or (topics if any_name else [])
+    if len(candidates) > 1:
+        raise AnalysisError(
+            f"several {msgtype} topics ({', '.join(candidates)}): choose one with --namespace"
+        )
+    return candidates[0] if candidates else None
+
+
+def _stamp_ns(message: Any) -> int:
+    stamp = message.header.stamp
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def read_bag(path: Path, namespace: str | None = None) -> Recording:
+    """Read tail/state, motor/joint_state and tail/symmetry from a rosbag2 bag."""
+    try:
+        return _read_bag(path, namespace)
+    except AnalysisError:
+        raise
+    except Exception as error:  # noqa: BLE001 - rosbags and sqlite raise many kinds on bad files
+        raise AnalysisError(
+            f"{path}: not a readable rosbag2 bag: {describe_error(error)}"
+        ) from None
+
+
+def _read_bag(path: Path, namespace: str | None) -> Recording:
+    from rosbags.rosbag2 import Reader
+    from rosbags.rosbag2.reader import DirectoryReader
+
+    reader = Reader(path)
+    reader.open()
+    try:
+        connections = list(reader.connections)
+        # A bag directory is read through one storage per file; a storage file alone is one.
+        storage = reader.storage
+        file_count = len(storage.storages) if isinstance(storage, DirectoryReader) else 1
+        listing = ", ".join(f"{c.topic} ({c.msgtype})" for c in connections) or "none"
+        state_topic = _pick_topic(connections, TAIL_STATE.type, TAIL_STATE.name, namespace)
+        # Other JointState topics (tail/joint_states) are not the carrier.
+        joint_topic = _pick_topic(
+            connections, MOTOR_JOINT_STATE.type, MOTOR_JOINT_STATE.name, namespace, any_name=False
+        )
+        report_topic = _pick_topic(connections, TAIL_SYMMETRY.type, TAIL_SYMMETRY.name, namespace)
+        if state_topic is None and joint_topic is None:
+            where = f" in namespace {namespace!r}" if namespace is not None else ""
+            raise AnalysisError(
+                f"{path}: no tail/state or motor/joint_state topic{where}: not a fishtail "
+                f"recording (topics: {listing})"
+            )
+        wanted = [c for c in connections if c.topic in (state_topic, joint_topic, report_topic)]
+        store = _typestore_for(connections)
+        for connection in wanted:
+            if connection.msgtype not in store.fielddefs:
+                raise AnalysisError(
+                    f"{path}: no definition of {connection.msgtype} in the bag or installed"
+                )
+            if connection.digest and store.hash_rihs01(connection.msgtype) != connection.digest:
+                raise AnalysisError(
+                    f"{path}: {connection.topic} was recorded with another definition of "
+                    f"{connection.msgtype} (hash {connection.digest})"
+                )
+        states: list[Any] = []
+        joints: list[Any] = []
+        reports: list[Any] = []
+        sink = {state_topic: states, joint_topic: joints, report_topic: reports}
+        for connection, _, raw in reader.messages(connections=wanted):
+            sink[connection.topic].append(store.deserialize_cdr(raw, connection.msgtype))
+        message_count = reader.message_count
+        duration_s = reader.duration * 1e-9
+    finally:
+        reader.close()
+    description = f"rosbag2 bag, {file_count} file(s), {message_count} messages, {duration_s:.1f} s"
+    if state_topic is not None and not states:
+        if not joints:
+            raise AnalysisError(f"{path}: the bag holds no tail/state or motor/joint_state message")
+        state_topic = None
+    if state_topic is None and not joints:
+        raise AnalysisError(f"{path}: the bag holds no motor/joint_state message")
+    recording = _recording_from_messages(path, description, states, joints)
+    recording.monitor_verdicts = [int(r.verdict) for r in reports]
+    return recording
+
+
+def _carrier_index(names: Sequence[str]) -> int | None:
+    names = list(names)
+    if CARRIER_JOINT in names:
+        return names.index(CARRIER_JOINT)
+    return 0 if len(names) == 1 else None
+
+
+def _recording_from_messages(
+    path: Path, description: str, states: list[Any], joints: list[Any]
+) -> Recording:
+    notes: list[str] = []
+    carrier: dict[int, tuple[float, float]] = {}
+    for message in joints:
+        index = _carrier_index(message.name)
+        if index is None or index >= len(message.position):
+            continue
+        velocity = message.velocity[index] if index < len(message.velocity) else math.nan
+        carrier[_stamp_ns(message)] = (float(message.position[index]), float(velocity))
+
+    state: dict[str, FloatArray]
+    if states:
+        states = _sorted_unique(states, notes, TAIL_STATE.name)
+        stamps = np.array([_stamp_ns(m) for m in states], dtype=np.int64)
+        codes = Counter(int(m.mechanism) for m in states)
+        if len(codes) > 1:
+            notes.append(
+                f"tail/state mechanism codes {dict(codes)}: analysed as the most frequent one"
+            )
+        code = codes.most_common(1)[0][0]
+        mechanism: str | None = MECHANISM_OF_CODE.get(code)
+        if mechanism is None:
+            raise AnalysisError(f"{path}: tail/state has an unknown mechanism code {code}")
+        state = _state_arrays(states, TAIL_TYPES[mechanism].state_fields)
+        angle = state["motor_angle"].copy()
+        velocity = state["motor_velocity"].copy()
+        matched = 0
+        for i, stamp in enumerate(stamps.tolist()):
+            sample = carrier.get(stamp)
+            if sample is not None:
+                matched += 1
+                angle[i] = sample[0]
+                if math.isfinite(sample[1]):
+                    velocity[i] = sample[1]
+        if not carrier:
+            source = "motor_angle of tail/state (no motor/joint_state recorded)"
+        elif matched == len(stamps):
+            source = f"motor/joint_state (all {matched} tail states matched by stamp)"
+        else:
+            source = (
+                f"motor/joint_state for {matched} of {len(stamps)} tail states matched by stamp, "
+                "motor_angle of tail/state for the rest"
+            )
+    else:
+        if not carrier:
+            raise AnalysisError(
+                f"{path}: motor/joint_state has no carrier joint ({CARRIER_JOINT!r} or a single "
+                "joint)"
+            )
+        stamps = np.array(sorted(carrier), dtype=np.int64)
+        angle = np.array([carrier[s][0] for s in stamps.tolist()])
+        velocity = np.array([carrier[s][1] for s in stamps.tolist()])
+        if not np.all(np.isfinite(velocity)):
+            velocity = np.gradient(angle, stamps * 1e-9) if len(stamps) > 1 else velocity * 0.0
+        state = {}
+        mechanism = None
+        source = "motor/joint_state (no tail/state recorded: nothing to compare with)"
+    time_s = (stamps - stamps[0]) * 1e-9
+    stamp_s = np.array([s // 1_000_000_000 + (s % 1_000_000_000) * 1e-9 for s in stamps.tolist()])
+    return Recording(
+        source=path,
+        kind="bag",
+        description=description,
+        mechanism=mechanism,
+        time_s=time_s,
+        stamp_s=stamp_s,
+        carrier_angle=angle,
+        carrier_velocity=velocity,
+        carrier_source=source,
+        state=state,
+        notes=notes,
+    )
+
+
+def _sorted_unique(messages: list[Any], notes: list[str], topic: str) -> list[Any]:
+    by_stamp: dict[int, Any] = {}
+    for message in messages:
+        by_stamp.setdefault(_stamp_ns(message), message)
+    if len(by_stamp) < len(messages):
+        notes.append(
+            f"{len(messages) - len(by_stamp)} {topic} messages with repeated stamps ignored"
+        )
+    return [by_stamp[s] for s in sorted(by_stamp)]
+
+
+def _state_arrays(messages: list[Any], fields: Sequence[str]) -> dict[str, FloatArray]:
+    """The engine fields of TailState messages, one array each."""
+    columns: dict[str, list[float]] = {name: [] for name in fields}
+    for message in messages:
+        for name, values in columns.items():
+            nested = _MESSAGE_FIELD_OF_ENGINE.get(name)
+            if nested is None:
+                values.append(getattr(message, name))
+            else:
+                values.append(getattr(getattr(message, nested[0]), nested[1]))
+    return {name: np.asarray(values, dtype=float) for name, values in columns.items()}
+
+
+# ---- the CLI's CSV
+
+
+def read_csv(path: Path) -> Recording:
+    """Read the CSV of ``fishtail-kinematics table`` (one carrier cycle)."""
+    try:
+        with open(path, encoding="utf-8", newline="") as stream:
+            rows = list(csv.reader(stream))
+    except OSError as error:
+        raise AnalysisError(f"{path}: cannot read: {error.strerror}") from None
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise AnalysisError(
+            f"{path}: neither a rosbag2 bag nor a CSV: {describe_error(error)}"
+        ) from None
+    rows = [row for row in rows if row]
+    if not rows:
+        raise AnalysisError(f"{path}: empty file")
+    header = [name.strip() for name in rows[0]]
+    missing = [name for name in _REQUIRED_COLUMNS if name not in header]
+    if missing:
+        raise AnalysisError(
+            f"{path}: not a fishtail-kinematics table CSV (missing column(s) {', '.join(missing)})"
+        )
+    if len(rows) < 3:
+        raise AnalysisError(f"{path}: needs at least 2 data rows, has {len(rows) - 1}")
+    data = {}
+    for column, name in enumerate(header):
+        values = []
+        for line, row in enumerate(rows[1:], start=2):
+            if len(row) != len(header):
+                raise AnalysisError(
+                    f"{path}: line {line} has {len(row)} fields, the header {len(header)}"
+                )
+            try:
+                value = float(row[column])
+            except ValueError:
+                raise AnalysisError(
+                    f"{path}: line {line}, column {name}: not a number: {row[column]!r}"
+                ) from None
+            if not math.isfinite(value):
+                # float() reads "nan" and "inf"; a table of the CLI never holds them.
+                raise AnalysisError(
+                    f"{path}: line {line}, column {name}: not a finite number: {row[column]!r}"
+                )
+            values.append(value)
+        data[FIELD_OF_COLUMN.get(name, name)] = np.asarray(values)
+    angle = data["motor_angle"]
+    if not np.all(np.isfinite(angle)) or not np.all(np.diff(angle) > 0.0):
+        raise AnalysisError(f"{path}: motor_angle_rad must be finite and increasing")
+    # The first mechanism (the simplest) whose states have every table column of the file.
+    columns = {name for name in data if name in FIELD_OF_COLUMN.values()}
+    mechanism = next(
+        (name for name, tail in TAIL_TYPES.items() if columns <= set(tail.state_fields)), None
+    )
+    if mechanism is None:
+        raise AnalysisError(f"{path}: its columns are not those of any mechanism's table")
+    fields = TAIL_TYPES[mechanism].state_fields
+    state = {name: values for name, values in data.items() if name in fields}
+    return Recording(
+        source=path,
+        kind="csv",
+        description=f"CSV of fishtail-kinematics table, {len(angle)} samples of one carrier cycle",
+        mechanism=mechanism,
+        time_s=np.zeros_like(angle),  # set once the speed is known (needs the geometry)
+        stamp_s=np.zeros_like(angle),
+        carrier_angle=angle,
+        carrier_velocity=np.zeros_like(angle),
+        carrier_source="motor_angle_rad column",
+        state=state,
+        periodic=True,
+    )
+
