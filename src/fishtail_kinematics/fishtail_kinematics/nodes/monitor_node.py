@@ -166,7 +166,8 @@ class MonitorNode(SuiteNodeBase):
         }
 
     def _tolerances_from(self, changed: dict[str, ParameterValue]) -> SymmetryTolerances:
-        return SymmetryTolerances(**self._current(TOLERANCE_PARAMETERS, changed))  # type: ignore[arg-type]
+        values = self._current(TOLERANCE_PARAMETERS, changed)
+        return SymmetryTolerances(**{name: float(value) for name, value in values.items()})
 
     def _swimming_parameters_from(self, changed: dict[str, ParameterValue]) -> SwimmingParameters:
         return SwimmingParameters.from_values(self._current(SWIMMING_PARAMETERS, changed))

@@ -22,7 +22,12 @@ import numpy.typing as npt
 
 from fishtail_common.config_files import default_parameter_file
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
-from fishtail_kinematics.engine.geometry import INPUT_FIELDS, OSCILLATORY, FloatArray, Geometry
+from fishtail_kinematics.engine.geometry import (
+    INPUT_FIELDS,
+    FloatArray,
+    Geometry,
+    LinkageState,
+)
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import (
     MECHANISM,
@@ -35,6 +40,8 @@ from fishtail_kinematics.engine.swimming import (
     swimming_figures,
 )
 from fishtail_kinematics.engine.symmetry import (
+    DEFAULT_GAP_RESET_S,
+    DEFAULT_HYSTERESIS_RAD,
     GAP_RESET,
     HYSTERESIS,
     TOLERANCE_PARAMETERS,
@@ -118,12 +125,13 @@ def choose_geometry(
 ) -> tuple[Geometry, str, dict[str, object]]:
     """Geometry, where it came from, and all parameters of the file (for tolerances etc.)."""
     if config is None:
+        chosen = mechanism or str(MECHANISM.default)
         try:
-            path = default_parameter_file(mechanism or OSCILLATORY)
+            path: Path | None = default_parameter_file(chosen)
         except LookupError:
             path = None
         if path is None or not path.is_file():
-            geometry = geometry_from_parameters({MECHANISM.name: mechanism or OSCILLATORY})
+            geometry = geometry_from_parameters({MECHANISM.name: chosen})
             return geometry, "built-in report geometry (no config file found)", {}
         config, origin = path, f"{path} (default for the recorded mechanism)"
     else:
@@ -143,25 +151,27 @@ def choose_geometry(
 
 
 def tolerances_from(values: Mapping[str, object]) -> tuple[SymmetryTolerances, float, float]:
-    """Monitor tolerances, hysteresis and gap reset from a parameter file's values."""
-    chosen = {
-        spec.name: float(values[spec.name])  # type: ignore[arg-type]
-        for spec in TOLERANCE_PARAMETERS
-        if spec.name in values
-    }
+    """Monitor tolerances, hysteresis and gap reset from a parameter file's values.
+
+    Each value is checked as the monitor checks its parameter; those not given are its defaults.
+    """
     try:
+        chosen = {
+            spec.name: float(spec.check(values.get(spec.name, spec.default)))
+            for spec in (*TOLERANCE_PARAMETERS, HYSTERESIS, GAP_RESET)
+        }
+        hysteresis = chosen.pop(HYSTERESIS.name)
+        gap = chosen.pop(GAP_RESET.name)
         tolerances = SymmetryTolerances(**chosen)
-    except (TypeError, ValueError) as error:
+    except ValueError as error:
         raise AnalysisError(f"bad symmetry tolerances in the config: {error}") from None
-    hysteresis = float(values.get(HYSTERESIS.name, HYSTERESIS.default))  # type: ignore[arg-type]
-    gap = float(values.get(GAP_RESET.name, GAP_RESET.default))  # type: ignore[arg-type]
     return tolerances, hysteresis, gap
 
 
 # ---- recomputing and comparing
 
 
-def recompute(tail: Tail, recording: Recording) -> object:
+def recompute(tail: Tail, recording: Recording) -> LinkageState:
     """The engine's state for the recording's carrier inputs (one vectorised call)."""
     try:
         return tail.solve(recording.carrier_angle, recording.carrier_velocity)
@@ -170,7 +180,7 @@ def recompute(tail: Tail, recording: Recording) -> object:
 
 
 def compare(
-    recomputed: object, recorded: Mapping[str, FloatArray], fields: Sequence[str]
+    recomputed: LinkageState, recorded: Mapping[str, FloatArray], fields: Sequence[str]
 ) -> Disagreement:
     """Largest absolute difference per field; NaN (or a missing field) counts as infinite."""
     per_field = {}
@@ -192,8 +202,8 @@ def beat_table(
     stamp_s: npt.ArrayLike,
     theta3: npt.ArrayLike,
     tolerances: SymmetryTolerances,
-    hysteresis_rad: float = float(HYSTERESIS.default),
-    gap_reset_s: float = float(GAP_RESET.default),
+    hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD,
+    gap_reset_s: float = DEFAULT_GAP_RESET_S,
     carrier_rad: npt.ArrayLike | None = None,
 ) -> list[JudgedBeat]:
     """Per-beat statistics and verdicts; a gap longer than ``gap_reset_s`` restarts the beat.

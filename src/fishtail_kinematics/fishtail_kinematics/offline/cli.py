@@ -209,7 +209,7 @@ def run_plot(arguments: argparse.Namespace, out: TextIO) -> None:
                 np.asarray(state.theta3),
                 np.asarray(getattr(state, tail.fin_joint)),
                 fit.mu,
-                directory / "theta3_theta5.png",
+                directory / f"theta3_{tail.fin_joint}.png",
                 title,
             )
         )
