@@ -27,14 +27,9 @@ from pathlib import Path
 import pytest
 import yaml
 
+from fishtail_common import pytest_fixtures
 from fishtail_common.interface import SUITE_NODES
-from fishtail_common.testing import (
-    WIDENING_VARIABLES,
-    NodeProcess,
-    Probe,
-    claim_domain,
-    isolated_ros_environment,
-)
+from fishtail_common.testing import NodeProcess
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "config"
@@ -43,32 +38,15 @@ CONFIG = ROOT / "config"
 NODE_MODULES = {node.name: node.module for node in SUITE_NODES}
 
 _PROCESSES_KEY = pytest.StashKey[list]()
-_domains_used_in_this_run: set[int] = set()
+
+# The shared fixtures, registered for these tests by being names of this conftest.
+ros_domain = pytest_fixtures.ros_domain
+ros = pytest_fixtures.ros
 
 
 def pytest_configure(config):
     """Silence a third-party deprecation warning that the ROS message imports trigger."""
     config.addinivalue_line("filterwarnings", "ignore:module 'sre_:DeprecationWarning:lark")
-
-
-# --------------------------------------------------------------------------------------------
-# ROS domain per test
-
-
-@pytest.fixture
-def ros_domain(monkeypatch, tmp_path) -> int:
-    """This test's ROS_DOMAIN_ID, with localhost discovery and logs in tmp_path."""
-    # Ids not yet used in this run first: their processes may still hold ports.
-    lock = claim_domain(avoid=_domains_used_in_this_run)
-    _domains_used_in_this_run.add(lock.domain)
-    log_dir = tmp_path / "ros_log"
-    log_dir.mkdir()
-    for name, value in isolated_ros_environment(lock.domain, log_dir).items():
-        monkeypatch.setenv(name, value)
-    for name in WIDENING_VARIABLES:
-        monkeypatch.delenv(name, raising=False)
-    with lock:
-        yield lock.domain
 
 
 # --------------------------------------------------------------------------------------------
@@ -145,16 +123,6 @@ def pytest_runtest_makereport(item, call):
 
 # --------------------------------------------------------------------------------------------
 # The test's own ROS node
-
-
-@pytest.fixture
-def ros(ros_domain) -> Probe:
-    """This test's probe node on the test's domain."""
-    probe = Probe(ros_domain)
-    try:
-        yield probe
-    finally:
-        probe.close()
 
 
 @pytest.fixture(scope="session")

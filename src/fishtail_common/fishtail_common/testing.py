@@ -22,7 +22,7 @@ import signal
 import subprocess
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -244,6 +244,14 @@ class Recorder:
     def __len__(self) -> int:
         """Number of messages received."""
         return len(self.messages)
+
+    def __getitem__(self, index: Any) -> Any:
+        """A message (or a slice of them), in the order received."""
+        return self.messages[index]
+
+    def __iter__(self) -> Iterator[Any]:
+        """The messages in the order received."""
+        return iter(self.messages)
 
     def clear(self) -> None:
         """Forget what was received."""

@@ -10,9 +10,9 @@
   teardown.
 * ``driver_run(link, **params)``: the driver node (backend:=serial) as a process at ``link``, with
   the probe recording motor/joint_state and /diagnostics and publishing speed commands.
-* ``ros_domain`` / ``ros_probe``: a ROS domain of our own (the same lock directory as the
-  workspace's integration tests, so parallel runs never share a domain), localhost discovery,
-  ROS_LOG_DIR in tmp_path, and a probe node with recording subscriptions.
+* ``ros_domain`` / ``ros_probe``: a ROS domain of our own, localhost discovery, ROS_LOG_DIR in
+  tmp_path, and a probe node with recording subscriptions (:mod:`fishtail_common.pytest_fixtures`,
+  shared with the workspace's integration tests, so parallel runs never share a domain).
 
 Helpers live here because pytest imports test files with ``--import-mode=importlib``.
 """
@@ -20,13 +20,11 @@ Helpers live here because pytest imports test files with ``--import-mode=importl
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import os
 import queue
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -34,13 +32,13 @@ from pathlib import Path
 
 import pytest
 
+from fishtail_common import pytest_fixtures
+from fishtail_common.testing import DISCOVERY_TIMEOUT_S, NodeProcess, Probe
 from fishtail_driver.board_pty import BoardConfig, FakeBoard
 from fishtail_driver.serial_backend import SerialBackend
 from fishtail_driver.serial_config import SerialConfig
 
 POLL_S = 0.005
-#: Discovery takes 0.3-2.5 s on this kind of machine; waits for it get a wide margin.
-DISCOVERY_TIMEOUT_S = 15.0
 
 
 def pytest_configure(config):
@@ -189,155 +187,16 @@ def serial_backend() -> Callable[..., SerialBackend]:
 # --------------------------------------------------------------------------------------------
 # ROS
 
-#: Same scheme and lock directory as the workspace's test/conftest.py: one domain per test.
-DOMAIN_IDS = range(1, 102)
-_PORT_BASE, _DOMAIN_GAIN = 7400, 250
-_LOCK_DIR = Path(tempfile.gettempdir()) / "fishtail-ros-domains"
-
-
-def _udp_ports_in_use() -> set[int]:
-    ports = set()
-    for table in ("/proc/net/udp", "/proc/net/udp6"):
-        with contextlib.suppress(OSError), open(table, encoding="ascii") as stream:
-            next(stream, None)
-            for line in stream:
-                fields = line.split()
-                if len(fields) > 1 and ":" in fields[1]:
-                    ports.add(int(fields[1].rsplit(":", 1)[1], 16))
-    return ports
+# The shared fixtures (a ROS domain of the test's own, the probe), registered for these tests by
+# being names of this conftest.
+ros_domain = pytest_fixtures.ros_domain
+ros = pytest_fixtures.ros
 
 
 @pytest.fixture
-def ros_domain(monkeypatch, tmp_path) -> int:
-    """A ROS_DOMAIN_ID no other process uses, localhost discovery, ROS_LOG_DIR in tmp_path."""
-    _LOCK_DIR.mkdir(parents=True, exist_ok=True)
-    ports = _udp_ports_in_use()
-    start = os.getpid() % len(DOMAIN_IDS)
-    claimed = None
-    for step in range(len(DOMAIN_IDS)):
-        domain = DOMAIN_IDS[(start + step) % len(DOMAIN_IDS)]
-        low = _PORT_BASE + _DOMAIN_GAIN * domain
-        if any(low <= port < low + _DOMAIN_GAIN for port in ports):
-            continue
-        descriptor = os.open(_LOCK_DIR / f"{domain}.lock", os.O_CREAT | os.O_RDWR, 0o666)
-        try:
-            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            os.close(descriptor)
-            continue
-        claimed = domain, descriptor
-        break
-    if claimed is None:
-        pytest.fail("no free ROS domain id")
-    domain, descriptor = claimed
-    log_dir = tmp_path / "ros_log"
-    log_dir.mkdir()
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    monkeypatch.setenv("ROS_LOG_DIR", str(log_dir))
-    monkeypatch.setenv("PYTHONUNBUFFERED", "1")
-    try:
-        yield domain
-    finally:
-        fcntl.flock(descriptor, fcntl.LOCK_UN)
-        os.close(descriptor)
-
-
-class Probe:
-    """The test's own rclpy context on the test's domain, a node, recorders and waiting."""
-
-    def __init__(self, domain: int) -> None:
-        """Initialise the context, the node and an executor."""
-        import rclpy
-        from rclpy.context import Context
-        from rclpy.experimental import EventsExecutor
-        from rclpy.signals import SignalHandlerOptions
-
-        self.context = Context()
-        rclpy.init(
-            context=self.context, domain_id=domain,
-            signal_handler_options=SignalHandlerOptions.NO,
-        )  # fmt: skip
-        self.node = rclpy.create_node("serial_probe", context=self.context)
-        self.executor = EventsExecutor(context=self.context)
-        self.executor.add_node(self.node)
-
-    def close(self) -> None:
-        """Destroy the node and shut the context down."""
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.context.try_shutdown()
-
-    def spin_until(self, predicate: Callable[[], object], timeout: float, what: str) -> float:
-        """Process callbacks until ``predicate()`` holds; fails the test on timeout."""
-        start = time.monotonic()
-        while not predicate():
-            if time.monotonic() - start > timeout:
-                pytest.fail(f"timed out after {timeout:g} s waiting for {what}")
-            end = time.monotonic() + 0.02
-            while (left := end - time.monotonic()) > 0:
-                self.executor.spin_once(timeout_sec=left)
-        return time.monotonic() - start
-
-    def record(self, msg_type, topic: str, qos) -> list:
-        """Subscribe; returns the list the messages are appended to."""
-        messages: list = []
-        self.node.create_subscription(msg_type, topic, messages.append, qos)
-        return messages
-
-
-@pytest.fixture
-def ros_probe(ros_domain) -> Probe:
-    """This test's probe node."""
-    probe = Probe(ros_domain)
-    try:
-        yield probe
-    finally:
-        probe.close()
-
-
-class NodeProcess:
-    """``python -m <module> --ros-args ...`` in its own process group, output to tmp_path files."""
-
-    def __init__(self, argv: list[str], log_dir: Path, name: str) -> None:
-        """Start it."""
-        self.argv = argv
-        self.stdout_path = log_dir / f"{name}.stdout"
-        self.stderr_path = log_dir / f"{name}.stderr"
-        with open(self.stdout_path, "wb") as out, open(self.stderr_path, "wb") as err:
-            self.popen = subprocess.Popen(
-                argv, env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=out, stderr=err,
-                start_new_session=True,
-            )  # fmt: skip
-
-    def output(self) -> str:
-        """Command line, exit status and output, for failure messages."""
-        return (
-            f"$ {' '.join(self.argv)}\nexit status: {self.popen.poll()}\n"
-            f"--- stdout\n{self.stdout_path.read_text(errors='replace')}"
-            f"--- stderr\n{self.stderr_path.read_text(errors='replace')}"
-        )
-
-    def signal(self, signum: int) -> None:
-        """Signal the process itself (not its group) if it still runs."""
-        if self.popen.poll() is None:
-            os.kill(self.popen.pid, signum)
-
-    def wait(self, timeout: float) -> int | None:
-        """Exit status within ``timeout`` s, or None."""
-        try:
-            return self.popen.wait(timeout)
-        except subprocess.TimeoutExpired:
-            return None
-
-    def stop(self) -> None:
-        """SIGINT, then SIGKILL to the group if it does not exit within 5 s."""
-        self.signal(signal.SIGINT)
-        if self.wait(5.0) is None:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.popen.pid, signal.SIGKILL)
-            self.popen.wait(5.0)
+def ros_probe(ros: Probe) -> Probe:
+    """This test's probe node (:class:`fishtail_common.testing.Probe`)."""
+    return ros
 
 
 @pytest.fixture
@@ -350,7 +209,7 @@ def driver_process(ros_domain, tmp_path) -> Callable[..., NodeProcess]:
         for key, value in params.items():
             text = repr(value) if isinstance(value, float) else str(value)
             argv += ["-p", f"{key}:={text}"]
-        process = NodeProcess(argv, tmp_path, f"driver{len(processes)}")
+        process = NodeProcess(f"driver{len(processes)}", argv, tmp_path)
         processes.append(process)
         return process
 
@@ -446,7 +305,7 @@ class DriverRun:
 
     def stop(self) -> str:
         """SIGINT: the driver must exit 0 without a traceback; returns its output."""
-        self.driver.signal(signal.SIGINT)
+        self.driver.send_signal(signal.SIGINT)
         status = self.driver.wait(10.0)
         output = self.driver.output()
         assert status == 0, output

@@ -135,7 +135,7 @@ def test_driver_serial_end_to_end(ros_probe, board_process, driver_process, tmp_
     # 6. Commands resume, then SIGINT: the board receives m 0 0 before the driver exits.
     speed["value"] = 4.0
     wait(lambda: motor_commands(logs[1])[-1:] not in ([], ["m 0 0"]), 3.0, "motion again")
-    driver.signal(signal.SIGINT)
+    driver.send_signal(signal.SIGINT)
     status = driver.wait(10.0)
     assert status == 0, driver.output()
     assert motor_commands(logs[1])[-1] == "m 0 0", motor_commands(logs[1])[-5:]
