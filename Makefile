@@ -33,8 +33,11 @@ build:
 run: setup
 	$(WITH_ENV) $(RUN_CMD)
 
+# ruff (style, import order, and the layer bans: no rclpy outside the nodes, bringup and
+# fishtail_common's ROS glue; no plotting or bag I/O in the engine), then mypy over every package
+# (strict for the engine, the serial codec and the shared interface; pyproject.toml).
 lint: setup
-	$(WITH_ENV) ruff check .
+	$(WITH_ENV) ruff check . && mypy
 
 # Each run gets its own ROS domain (unless ROS_DOMAIN_ID is set) so that nodes started by tests
 # do not talk to other ROS processes on the machine.
