@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+from collections.abc import Mapping
 
 
 class Level(enum.IntEnum):
@@ -23,6 +24,17 @@ class Level(enum.IntEnum):
     WARN = 1
     ERROR = 2
     STALE = 3
+
+
+@dataclasses.dataclass(frozen=True)
+class Status:
+    """One diagnostic status of a node, as plain values (fishtail_common.ros publishes it)."""
+
+    name: str  # what it is about; published as "<node's full name>: <name>"
+    level: int  # a Level
+    message: str
+    values: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    hardware_id: str = ""
 
 
 class QosKind(enum.Enum):
@@ -93,6 +105,8 @@ SUITE_TOPICS: tuple[Topic, ...] = (
 CARRIER_JOINT = "carrier_joint"
 #: The frame of the tail mechanism: origin at the ring-gear centre O, x along the stroke.
 TAIL_FRAME = "tail_mechanism"
+#: fishtail_msgs/TailState.mechanism of each mechanism (its MECHANISM_* constants).
+MECHANISM_CODES = {"oscillatory": 1, "undulatory": 2}
 
 
 @dataclasses.dataclass(frozen=True)

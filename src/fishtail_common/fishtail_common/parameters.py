@@ -70,11 +70,11 @@ class ParameterSpec:
         number: int | float = int(value) if kind is int else float(value)
         if kind is int and number != value:
             raise ParameterValueError(f"{self.name} must be a whole number, got {value!r}")
-        if not math.isfinite(number):
-            raise ParameterValueError(f"{self.name} must be finite, got {value!r}")
         low = -math.inf if self.minimum is None else self.minimum
         high = math.inf if self.maximum is None else self.maximum  # inf prints as "inf"
-        if not low <= number <= high:
+        if not low <= number <= high:  # NaN too: it compares false
             unit = f" {self.unit}" if self.unit else ""
             raise ParameterValueError(f"{self.name} = {number!r} is outside [{low}, {high}]{unit}")
+        if not math.isfinite(number):  # an infinity where the range is open
+            raise ParameterValueError(f"{self.name} must be finite, got {value!r}")
         return number

@@ -9,7 +9,7 @@ from __future__ import annotations
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -18,7 +18,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
 
-from fishtail_common.interface import QosKind, Topic
+from fishtail_common.interface import QosKind, Status, Topic
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 
 _PROFILES = {
@@ -68,23 +68,25 @@ def declare(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, ParameterVa
 # ---- diagnostics
 
 
-def diagnostic_array(
-    node: Node,
-    name: str,
-    level: int,
-    message: str,
-    values: Mapping[str, str],
-    hardware_id: str = "",
-) -> DiagnosticArray:
-    """A DiagnosticArray with one status named ``"<node's full name>: <name>"``, stamped now."""
-    status = DiagnosticStatus(
-        level=bytes([int(level)]),
-        name=f"{node.get_fully_qualified_name()}: {name}",
-        message=message,
-        hardware_id=hardware_id,
-        values=[KeyValue(key=key, value=value) for key, value in values.items()],
+def diagnostic_array(node: Node, *statuses: Status) -> DiagnosticArray:
+    """A DiagnosticArray of ``statuses``, each named ``"<node's full name>: <name>"``, stamped now.
+
+    Readers that keep a node's latest status per name see them all; put the one that matters most
+    last for those that keep only the latest of a node.
+    """
+    prefix = node.get_fully_qualified_name()
+    array = DiagnosticArray(
+        status=[
+            DiagnosticStatus(
+                level=bytes([int(status.level)]),
+                name=f"{prefix}: {status.name}",
+                message=status.message,
+                hardware_id=status.hardware_id,
+                values=[KeyValue(key=key, value=value) for key, value in status.values.items()],
+            )
+            for status in statuses
+        ]
     )
-    array = DiagnosticArray(status=[status])
     array.header.stamp = node.get_clock().now().to_msg()
     return array
 

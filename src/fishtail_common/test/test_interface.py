@@ -74,3 +74,13 @@ def test_default_parameter_file_falls_back_to_the_install(monkeypatch, tmp_path)
     path = default_parameter_file("oscillatory")
     assert path.parts[-4:] == ("share", "fishtail_bringup", "config", "oscillatory.yaml")
     assert path.is_file()
+
+
+def test_mechanism_codes_are_the_messages():
+    from fishtail_common.interface import MECHANISM_CODES
+    from fishtail_msgs.msg import TailState
+
+    assert MECHANISM_CODES == {
+        "oscillatory": TailState.MECHANISM_OSCILLATORY,
+        "undulatory": TailState.MECHANISM_UNDULATORY,
+    }

@@ -57,3 +57,13 @@ def test_bool_parameter_refuses_numbers():
 def test_text_carries_the_unit():
     assert RATE.text == "rate [Hz]"
     assert BACKEND.text == "motor backend"
+
+
+def test_not_finite_is_outside_a_range_and_refused_without_one():
+    with pytest.raises(
+        ParameterValueError, match=r"publish_rate_hz = nan is outside \[1.0, 1000.0\] Hz"
+    ):
+        RATE.check(math.nan)
+    unbounded = ParameterSpec("offset", 0.0, "any offset")
+    with pytest.raises(ParameterValueError, match="offset must be finite"):
+        unbounded.check(math.inf)

@@ -5,7 +5,13 @@ import rclpy
 from rclpy.context import Context
 from rclpy.signals import SignalHandlerOptions
 
-from fishtail_common.interface import DIAGNOSTICS, MOTOR_JOINT_STATE, TAIL_SYMMETRY, Level
+from fishtail_common.interface import (
+    DIAGNOSTICS,
+    MOTOR_JOINT_STATE,
+    TAIL_SYMMETRY,
+    Level,
+    Status,
+)
 from fishtail_common.parameters import ParameterSpec, ParameterValueError
 from fishtail_common.ros import declare, descriptor, diagnostic_array, qos_profile, spin_until
 
@@ -78,8 +84,13 @@ def test_declare_refuses_a_value_its_spec_refuses(context):
 def test_diagnostic_array_names_the_node_and_carries_the_values(context):
     node = make_node(context, "diag", {})
     try:
-        array = diagnostic_array(node, "motor", Level.WARN, "slow", {"rate_hz": "12.0"}, "board")
-        (status,) = array.status
+        array = diagnostic_array(
+            node,
+            Status("input", Level.OK, "fine"),
+            Status("motor", Level.WARN, "slow", {"rate_hz": "12.0"}, "board"),
+        )
+        first, status = array.status
+        assert (first.name, first.level, first.values) == ("/diag: input", bytes([0]), [])
         assert status.name == "/diag: motor"
         assert status.level == bytes([1])
         assert (status.message, status.hardware_id) == ("slow", "board")

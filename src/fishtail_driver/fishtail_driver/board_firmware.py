@@ -50,6 +50,7 @@ def atoi16(text: bytes) -> int:
         index += 1
     return wrap_int16(-value if negative else value)
 
+
 @dataclasses.dataclass
 class FirmwareConfig:
     """What the emulated board is: its firmware's settings, its encoders and motors."""

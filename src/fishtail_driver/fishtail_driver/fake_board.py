@@ -62,8 +62,12 @@ def _parser() -> argparse.ArgumentParser:
     add("--arg-buffer", type=int, default=32, help="firmware argument buffer size [bytes]")
     add("--boot-ms", type=float, default=0.0, help="input ignored this long after power-up")
     add("--delay-ms", type=float, default=0.0, help="delay every reply (a slow board)")
-    add("--delay-after-s", type=float, default=None,
-        help="answer at once until this long after start, then delay replies by --delay-ms")
+    add(
+        "--delay-after-s",
+        type=float,
+        default=None,
+        help="answer at once until this long after start, then delay replies by --delay-ms",
+    )
     add("--drop-rate", type=float, default=0.0, help="probability of losing a command/reply")
     add("--garble-rate", type=float, default=0.0, help="probability of corrupting an exchange")
     add("--reset-after-s", type=float, default=None, help="reset the board once, after this")

@@ -38,7 +38,13 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from fishtail_common.interface import DIAGNOSTICS, MOTOR_CMD_SPEED, MOTOR_JOINT_STATE, Level
+from fishtail_common.interface import (
+    DIAGNOSTICS,
+    MOTOR_CMD_SPEED,
+    MOTOR_JOINT_STATE,
+    Level,
+    Status,
+)
 from fishtail_common.parameters import ParameterValue, ParameterValueError
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
 from fishtail_driver.backends import EncoderSample, StopOutcome
@@ -289,7 +295,7 @@ class DriverNode(SuiteNodeBase):
             "clock_steps": str(self.clock_mapping.steps),
         }
         self.diagnostics_publisher.publish(
-            diagnostic_array(self, "motor", level, text, values, self.backend.hardware_id)
+            diagnostic_array(self, Status("motor", level, text, values, self.backend.hardware_id))
         )
 
     def shutdown(self) -> StopOutcome:

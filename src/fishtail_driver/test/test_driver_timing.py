@@ -122,9 +122,7 @@ def test_late_replies_are_discarded_not_published(fake_board, driver_run, delay_
     assert run.counter("phase_rebases") == 0
 
 
-def test_slow_board_within_the_timeout_is_stamped_at_the_request_and_warns(
-    fake_board, driver_run
-):
+def test_slow_board_within_the_timeout_is_stamped_at_the_request_and_warns(fake_board, driver_run):
     """Replies 80 ms late under a 100 ms timeout: accepted, stamped honestly, the rate a WARN.
 
     Each poll waits for its reply, so the poll rate falls to about 12 Hz of the promised 100 Hz.

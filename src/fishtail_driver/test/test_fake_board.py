@@ -204,4 +204,3 @@ def test_reply_delay_is_added_after_the_reading():
         assert board._tx[-1][0] == pytest.approx(2.08)
     finally:
         board.close()
-

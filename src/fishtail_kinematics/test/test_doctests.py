@@ -23,8 +23,10 @@ def pure_modules():
     modules = [("fishtail_kinematics", PACKAGE_DIR / "__init__.py")]
     for info in pkgutil.walk_packages([str(PACKAGE_DIR)], prefix="fishtail_kinematics."):
         relative = Path(*info.name.split(".")[1:])
-        path = PACKAGE_DIR / relative / "__init__.py" if info.ispkg else PACKAGE_DIR / (
-            f"{relative}.py"
+        path = (
+            PACKAGE_DIR / relative / "__init__.py"
+            if info.ispkg
+            else PACKAGE_DIR / (f"{relative}.py")
         )
         modules.append((info.name, path))
     for name, path in sorted(modules):

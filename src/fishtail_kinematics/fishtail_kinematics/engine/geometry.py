@@ -33,8 +33,6 @@ Real: TypeAlias = float | FloatArray
 OSCILLATORY = "oscillatory"
 UNDULATORY = "undulatory"
 MECHANISMS = (OSCILLATORY, UNDULATORY)
-#: Each mechanism's code in fishtail_msgs/TailState (MECHANISM_OSCILLATORY, MECHANISM_UNDULATORY).
-MECHANISM_CODES = {OSCILLATORY: 1, UNDULATORY: 2}
 
 #: Report values (metres). RS is the exactly symmetric rocker, sqrt(PR^2 + OS*sqrt(OS^2 + R^2)).
 REPORT_RING_RADIUS_M = 0.1

@@ -16,7 +16,6 @@ fishtail_kinematics.engine.errors.ParameterError: ring_radius_m = -1.0 is outsid
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping
 
 from fishtail_common.parameters import ParameterSpec, ParameterValueError
@@ -39,11 +38,6 @@ def check_parameter(name: str, value: object) -> float:
     spec = GEOMETRY_PARAMETERS_BY_NAME.get(name)
     if spec is None:
         raise ParameterError(f"unknown geometry parameter {name!r}")
-    if isinstance(value, float) and not math.isfinite(value):
-        # A length that is not finite is outside the range like any other, and said so.
-        raise ParameterError(
-            f"{name} = {value!r} is outside [{spec.minimum}, {spec.maximum}] {spec.unit}"
-        )
     try:
         return float(spec.check(value))
     except ParameterValueError as error:

@@ -38,19 +38,20 @@ from sensor_msgs.msg import JointState
 from fishtail_common.interface import (
     CARRIER_JOINT,
     DIAGNOSTICS,
+    MECHANISM_CODES,
     MOTOR_JOINT_STATE,
     TAIL_FRAME,
     TAIL_JOINT_STATES,
     TAIL_STATE,
     TAIL_TIP,
     Level,
+    Status,
 )
 from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import (
     GEOMETRY_PARAMETERS,
-    MECHANISM_CODES,
     LinkageState,
 )
 from fishtail_kinematics.engine.input_guard import (
@@ -311,7 +312,7 @@ class KinematicsNode(SuiteNodeBase):
             **input_values,
         }
         self.diagnostics_publisher.publish(
-            diagnostic_array(self, "kinematics", level, text, values)
+            diagnostic_array(self, Status("kinematics", level, text, values))
         )
 
 

@@ -37,14 +37,15 @@ from std_msgs.msg import Float64
 
 from fishtail_common.interface import (
     DIAGNOSTICS,
+    MECHANISM_CODES,
     MOTOR_CMD_SPEED,
     TAIL_STATE,
     TAIL_SYMMETRY,
     Level,
+    Status,
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
-from fishtail_kinematics.engine.geometry import MECHANISM_CODES
 from fishtail_kinematics.engine.input_guard import (
     GUARD_PARAMETERS,
     GUARD_REASONS,
@@ -161,8 +162,7 @@ class MonitorNode(SuiteNodeBase):
     ) -> dict[str, ParameterValue]:
         """The values of ``specs``: as ``changed`` sets them, else as they are."""
         return {
-            spec.name: changed.get(spec.name, self.get_parameter(spec.name).value)
-            for spec in specs
+            spec.name: changed.get(spec.name, self.get_parameter(spec.name).value) for spec in specs
         }
 
     def _tolerances_from(self, changed: dict[str, ParameterValue]) -> SymmetryTolerances:
@@ -319,11 +319,13 @@ class MonitorNode(SuiteNodeBase):
         if stale:
             input_level, input_text = Level.STALE, f"no {INPUT_TOPIC} received recently"
         # The verdict last: a reader that keeps the latest status of this node keeps the verdict.
-        array = diagnostic_array(
-            self, f"{INPUT_TOPIC} input", input_level, input_text, input_values
+        self.diagnostics_publisher.publish(
+            diagnostic_array(
+                self,
+                Status(f"{INPUT_TOPIC} input", input_level, input_text, input_values),
+                Status("tail swing symmetry", level, text, values),
+            )
         )
-        array.status += diagnostic_array(self, "tail swing symmetry", level, text, values).status
-        self.diagnostics_publisher.publish(array)
 
     def _verdict_status(self) -> tuple[int, str]:
         """Level and message from the latest judged beat, saying if later beats were not judged.

@@ -21,8 +21,14 @@ from typing import Any
 import numpy as np
 
 from fishtail_common.bag_types import register_package_types
-from fishtail_common.interface import CARRIER_JOINT, MOTOR_JOINT_STATE, TAIL_STATE, TAIL_SYMMETRY
-from fishtail_kinematics.engine.geometry import MECHANISM_CODES, FloatArray
+from fishtail_common.interface import (
+    CARRIER_JOINT,
+    MECHANISM_CODES,
+    MOTOR_JOINT_STATE,
+    TAIL_STATE,
+    TAIL_SYMMETRY,
+)
+from fishtail_kinematics.engine.geometry import FloatArray
 from fishtail_kinematics.engine.mechanisms import TAIL_TYPES
 from fishtail_kinematics.offline.table_columns import FIELD_OF_COLUMN
 
@@ -396,4 +402,3 @@ def read_csv(path: Path) -> Recording:
         state=state,
         periodic=True,
     )
-

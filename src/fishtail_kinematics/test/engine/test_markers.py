@@ -27,8 +27,6 @@ def segment_lengths(points):
     return np.hypot(*(pairs[:, 1] - pairs[:, 0]).T)
 
 
-
-
 def test_oscillatory_markers_draw_the_solved_linkage():
     g = OscillatoryGeometry()
     tail = OscillatoryTail(g)
