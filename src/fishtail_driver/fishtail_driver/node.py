@@ -8,7 +8,7 @@ Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the who
                              increase (:mod:`fishtail_driver.stamping`)
   pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``;
                              WARN when motor/joint_state is rarer or has longer gaps than the
-                             parameters promise (:mod:`fishtail_driver.rate_check`)
+                             parameters promise (:mod:`fishtail_common.stream_timing`)
 
 Parameters: :mod:`fishtail_driver.parameters`. A watchdog, on a timer of its own (at most 50 ms,
 whatever the publish rate), stops the motor when no command arrives for ``cmd_timeout_sec``;
@@ -47,9 +47,9 @@ from fishtail_common.interface import (
 )
 from fishtail_common.parameters import ParameterValue, ParameterValueError
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.stream_timing import RateCheck
 from fishtail_driver.backends import EncoderSample, StopOutcome
 from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, make_backend
-from fishtail_driver.rate_check import RateCheck
 from fishtail_driver.stamping import ClockMapping, IncreasingStamps
 
 #: A backend keeps a non-zero speed alive for cmd_timeout_sec plus this [s].

@@ -39,7 +39,7 @@ from collections.abc import Mapping
 
 from fishtail_common.interface import Level
 from fishtail_common.parameters import ParameterSpec, ParameterValue
-from fishtail_kinematics.engine.stream_timing import PeriodTiming
+from fishtail_common.stream_timing import PeriodTiming
 
 #: Largest plausible |carrier angle| [rad] (module docstring: why 1e9).
 MAX_ABS_CARRIER_ANGLE_RAD = 1e9
@@ -205,9 +205,10 @@ def input_status(
 ) -> tuple[Level, str, dict[str, str]]:
     """Level (OK or WARN), message and values of an input stream over one period.
 
-    WARN when samples were dropped, or the stream had gaps or a low rate (:mod:`stream_timing`);
-    the message names each problem, the values carry the counts per reason, the measured rate,
-    the usual interval and the longest interval of the period.
+    WARN when samples were dropped, or the stream had gaps or a low rate
+    (:mod:`fishtail_common.stream_timing`); the message names each problem, the values carry the
+    counts per reason, the measured rate, the usual interval and the longest interval of the
+    period.
     """
     counts = drops.take_period()
     problems = []

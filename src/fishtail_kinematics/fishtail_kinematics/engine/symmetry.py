@@ -17,7 +17,7 @@ angle the integrals are over time. Period and frequency always come from time.
 
 Some beats are not judged (:attr:`Verdict.NOT_JUDGED`), because a verdict on them would be a
 verdict on missing data: a beat that contains a gap in the input (the caller says which
-intervals are gaps, see :mod:`fishtail_kinematics.engine.stream_timing`; peaks and integrals are
+intervals are gaps, see :mod:`fishtail_common.stream_timing`; peaks and integrals are
 interpolated across it), and a beat whose mean and shares are undefined because its carrier
 angle did not advance.
 
@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_common.parameters import ParameterSpec
-from fishtail_kinematics.engine.stream_timing import StreamTiming
+from fishtail_common.stream_timing import StreamTiming
 
 #: Default Schmitt-trigger width of the beat segmentation [rad].
 DEFAULT_HYSTERESIS_RAD = 0.01
@@ -352,7 +352,7 @@ def beats_of(
     """All complete beats of a recorded series (the same code path as the live monitor).
 
     As in the monitor, gaps are found by
-    :class:`~fishtail_kinematics.engine.stream_timing.StreamTiming` on the stamps, and an interval
+    :class:`~fishtail_common.stream_timing.StreamTiming` on the stamps, and an interval
     longer than ``gap_reset_s`` forgets the beat in progress.
     """
     tracker = BeatTracker(hysteresis_rad)

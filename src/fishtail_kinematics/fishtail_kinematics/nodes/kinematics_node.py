@@ -16,7 +16,7 @@ Topics (relative names):
 
 Implausible ``motor/joint_state`` samples are dropped before the engine sees them, by the rules
 of :mod:`fishtail_kinematics.engine.input_guard`; gaps and rate are judged by
-:mod:`fishtail_kinematics.engine.stream_timing`. Geometry parameters are validated by the engine
+:mod:`fishtail_common.stream_timing`. Geometry parameters are validated by the engine
 when set: an infeasible linkage is refused with the engine's reason and the previous geometry
 stays in force; a set that changes nothing is not news and is not logged.
 """
@@ -49,6 +49,7 @@ from fishtail_common.interface import (
 )
 from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import (
     GEOMETRY_PARAMETERS,
@@ -72,7 +73,6 @@ from fishtail_kinematics.engine.parameters import (
     geometry_from_parameters,
     geometry_parameters_in,
 )
-from fishtail_kinematics.engine.stream_timing import StreamTiming
 from fishtail_kinematics.nodes.marker_publisher import (
     MARKER_PARAMETERS,
     MARKERS_RATE,

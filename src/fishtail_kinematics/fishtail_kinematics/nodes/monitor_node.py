@@ -21,7 +21,7 @@ Topics (relative names):
 The statistics are :mod:`fishtail_kinematics.engine.symmetry` and
 :mod:`fishtail_kinematics.engine.swimming`, the same code the offline analysis uses; the input is
 checked by :mod:`fishtail_kinematics.engine.input_guard` and
-:mod:`fishtail_kinematics.engine.stream_timing`.
+:mod:`fishtail_common.stream_timing`.
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ from fishtail_common.interface import (
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.input_guard import (
     GUARD_PARAMETERS,
     GUARD_REASONS,
@@ -56,7 +57,6 @@ from fishtail_kinematics.engine.input_guard import (
     input_status,
 )
 from fishtail_kinematics.engine.mechanisms import TAIL_TYPES
-from fishtail_kinematics.engine.stream_timing import StreamTiming
 from fishtail_kinematics.engine.swimming import (
     SWIMMING_PARAMETERS,
     SwimmingParameters,

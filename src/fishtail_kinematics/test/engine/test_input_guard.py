@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.input_guard import (
     ANGLE_OUT_OF_RANGE,
     BACKWARDS,
@@ -20,7 +21,6 @@ from fishtail_kinematics.engine.input_guard import (
     DropCounts,
     input_status,
 )
-from fishtail_kinematics.engine.stream_timing import StreamTiming
 
 NOW = 1_000 * 10**9  # the node's clock [ns]
 MS = 1_000_000
@@ -134,7 +134,7 @@ def test_input_status_names_each_problem():
 def test_the_rules_do_not_import_rclpy():
     code = (
         "import sys, fishtail_kinematics.engine.input_guard, "
-        "fishtail_kinematics.engine.stream_timing; "
+        "fishtail_common.stream_timing; "
         "print('rclpy' in sys.modules)"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
