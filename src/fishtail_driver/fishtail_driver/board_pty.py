@@ -20,7 +20,7 @@ import sys
 import threading
 import time
 import tty
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 from fishtail_driver.board_firmware import Firmware, FirmwareConfig, ParsedCommand
 
@@ -106,6 +106,7 @@ class FakeBoard:
             None if config.delay_after_s is None else self.start_time + config.delay_after_s
         )
         self._toggle_slow_requested = threading.Event()
+        self._scripted_delays: collections.deque[float] = collections.deque()
         self.commands: list[tuple[float, str]] = []
         self.counts: collections.Counter[str] = collections.Counter()
 
@@ -240,6 +241,28 @@ class FakeBoard:
 
         self._call(action)
 
+    def script_delays(self, delays_s: Iterable[float]) -> None:
+        """Delay the next replies by these times [s], one each in order, then as before.
+
+        For tests that need one exact order of replies and timeouts, whatever the host's
+        scheduling: the delays set when each reply leaves relative to its command (replies still
+        never overtake each other).
+        """
+        delays = [float(delay) for delay in delays_s]
+        if any(not delay >= 0.0 for delay in delays):
+            raise ValueError(f"delays must be >= 0, got {delays}")
+
+        def action() -> None:
+            self._scripted_delays.extend(delays)
+            self._record(self._clock(), f"# scripted delays {delays}")
+
+        self._call(action)
+
+    @property
+    def scripted_delays_left(self) -> int:
+        """How many scripted delays are still to be used."""
+        return len(self._scripted_delays)
+
     def request_slow_toggle(self) -> None:
         """Switch the reply delay off or on at the loop's next turn (safe from signal handlers)."""
         self._toggle_slow_requested.set()
@@ -284,7 +307,10 @@ class FakeBoard:
             out = bytes(rng.randrange(256) for _ in range(rng.randrange(1, 12))) + b"\r\n"
         elif garble == "oversized":
             out = bytes(rng.randrange(0x30, 0x3A) for _ in range(300)) + b"\r\n"
-        delay_s = config.delay_ms / 1000.0 if self.slow else 0.0
+        if self._scripted_delays:
+            delay_s = self._scripted_delays.popleft()
+        else:
+            delay_s = config.delay_ms / 1000.0 if self.slow else 0.0
         start = max(self._tx_clock, now + delay_s)
         self._tx_clock = start + len(out) * self.byte_s
         self._tx.append((self._tx_clock, out))

@@ -103,6 +103,9 @@ class SerialLink:
         self.board_baud: int | None = None
         #: When the last valid reply arrived (monotonic s).
         self.last_good_s = -float("inf")
+        #: Fence probes (``b``) written whose replies have not been seen: an upper bound, since a
+        #: lost reply is never seen (an answered exchange shows that none is still on its way).
+        self._probes_in_flight = 0
 
     # --- the port --------------------------------------------------------------------------
 
@@ -134,6 +137,7 @@ class SerialLink:
         self._rdev = None
         self._framer.clear()
         self._lines.clear()
+        self._probes_in_flight = 0
         if port is not None:
             try:
                 port.close()
@@ -231,18 +235,19 @@ class SerialLink:
             raise LinkLostError(f"{self.config.port} failed: {error}") from None
         return noise
 
-    def drop_input(self) -> int:
-        """Discard all buffered input; returns how many reply lines (whole or begun) it held."""
+    def drain_input(self) -> tuple[list[bytes | OversizedLine], int]:
+        """Take all buffered input: (the whole lines, 1 if a line was begun (dropped) else 0)."""
         port = self._open_port()
         try:
             waiting = port.in_waiting
             data = port.read(waiting) if waiting else b""
         except (serial.SerialException, OSError) as error:
             raise LinkLostError(f"{self.config.port} failed: {error}") from None
-        lines = len(self._lines) + len(self._framer.feed(data)) + bool(self._framer.pending)
+        lines = [*self._lines, *self._framer.feed(data)]
+        begun = int(bool(self._framer.pending))
         self._framer.clear()
         self._lines.clear()
-        return lines
+        return lines, begun
 
     # --- exchanges -------------------------------------------------------------------------
 
@@ -270,8 +275,12 @@ class SerialLink:
         try:
             value = parse(line)
         except ReplyError as error:
+            if self._is_fence_reply(line):
+                self._probe_answered()
             return self._failed(Failed(error.kind, error.reason))
         self.last_good_s = self._clock()
+        # The board answers in order: a probe written before this request will never answer now.
+        self._probes_in_flight = 0
         return Answered(value, sent + self.request_s(payload))
 
     def _failed(self, failed: Failed) -> Failed:
@@ -283,42 +292,63 @@ class SerialLink:
         if isinstance(line, OversizedLine):
             return False
         try:
-            parse_baud(line)
-            return True
+            baud = parse_baud(line)
         except ReplyError as error:
             # A firmware without 'b' (handshake answered Invalid Command) answers the fence so.
             return error.kind == "invalid_command" and self.board_baud is None
+        # The board's own answer only: a corrupted reading can look like a bare number.
+        return self.board_baud is None or baud == self.board_baud
+
+    def _probe_answered(self) -> None:
+        self._probes_in_flight = max(0, self._probes_in_flight - 1)
 
     def fence(self) -> None:
         """Get back in step after a failed exchange: no late reply may pass for a later one's.
 
         The protocol has no request tags, and a board may answer after the read timeout: sent at
         once, the next request would take that late reply for its own (an old reading with a
-        current stamp). So: drop the input, send ``b`` and discard every line until a reply to
-        ``b`` arrives. The board answers in order, so by then every earlier request has been
-        answered or lost, and the next reply answers the next request. A ``b`` reply never
-        passes for an encoder reading or an ``OK``, so a fence answered late (and taken for a
-        later fence) does no harm either. Discarded lines are counted (``discarded_replies``).
-        Fence replies do not count as valid replies: a board that answers only late is declared
-        lost after ``stale_timeout_s``. When closing, one attempt only.
+        current stamp). So: write a probe (``b``) and discard every line until a probe reply
+        that can only answer a probe written after the failed request; the board answers in
+        order, so by then every earlier request has been answered or lost, and the next reply
+        answers the next request.
+
+        Every probe reply looks the same, and probes of earlier fences may still be on their way
+        (a probe re-sent after a timeout, or one the previous fence did not wait for): their
+        replies come first. So the fence waits for one probe reply more than there are probes
+        still unanswered from before it; a lost probe reply only costs another probe. Discarded
+        lines (replies to other requests) are counted (``discarded_replies``). Probe replies do
+        not count as valid replies: a board that answers only late is declared lost after
+        ``stale_timeout_s``. When closing, one attempt only.
         """
         config = self.config
         self.counters.count("resyncs")
+        owed = self._probes_in_flight + 1
         while True:
-            discarded = self.drop_input()
+            lines, discarded = self.drain_input()
+            for line in lines:
+                if self._is_fence_reply(line):
+                    self._probe_answered()
+                    owed -= 1
+                else:
+                    discarded += 1
+            # The probe written now is after everything else: its reply is always enough.
+            owed = max(owed, 1)
             self.write(encode_get_baud())
+            self._probes_in_flight += 1
             deadline = self._clock() + config.read_timeout_s
-            in_step = False
-            while not in_step:
+            while owed > 0:
                 try:
                     line = self.read_line(deadline)
                 except ReadTimeoutError:
                     break
-                in_step = self._is_fence_reply(line)
-                discarded += not in_step
+                if self._is_fence_reply(line):
+                    self._probe_answered()
+                    owed -= 1
+                else:
+                    discarded += 1
             self.counters.count("discarded_replies", amount=discarded)
             silent_s = self._clock() - self.last_good_s
-            if in_step or self._closing.is_set():
+            if owed <= 0 or self._closing.is_set():
                 return
             if silent_s > config.stale_timeout_s:
                 raise LinkLostError(
@@ -415,4 +445,5 @@ class SerialLink:
                 continue
             verified += 1
             if verified >= 2:
+                self._probes_in_flight = 0  # answered in order: the probes before are done
                 return pair, sent + self.request_s(encode_read_encoders())

@@ -18,9 +18,17 @@ import time
 import pytest
 import serial
 
-from fishtail_driver.protocol import INT32_MAX
+from fishtail_driver.protocol import (
+    INT32_MAX,
+    encode_motor_speeds,
+    encode_read_encoders,
+    parse_encoders,
+    parse_ok,
+)
 from fishtail_driver.serial_backend import SerialBackend
 from fishtail_driver.serial_config import SerialConfig
+from fishtail_driver.serial_link import Answered, Failed, SerialLink
+from fishtail_driver.status_counters import StatusCounters
 
 FAST_RECONNECT = {"reconnect_min_s": 0.05, "reconnect_max_s": 0.2}
 SLOW_READ_TIMEOUT_S = 0.3
@@ -555,6 +563,56 @@ def test_late_replies_are_discarded_never_taken_for_later_ones(
         # A late reply taken for a later request's would be dated >= 0.1 s after its reading.
         assert error < 0.05, f"a sample dated {error:.3f} s away from the board's reading"
     assert_no_jump(samples.samples)
+
+
+def test_a_fence_never_ends_on_the_probe_reply_of_an_earlier_fence(fake_board):
+    """Probes re-sent by one fence and answered during the next: no reply taken out of turn.
+
+    Every fence probe (``b``) gets the same reply. The board's reply delays are scripted
+    (read timeout 0.2 s; every step below at least 0.1 s from the next, so the host's
+    scheduling cannot change the order):
+
+    ====  =================================================================================
+    0.0   e0 (reply 0.3 s late); timeout at 0.2: fence 1 probes, b1 (reply at 0.5)
+    0.4   fence 1 times out, probes again: b2 (0.6 s late: reply at 1.0)
+    0.5   b1 answers: fence 1 in step (b2 still on its way); e1 (0.6 s late: reply at 1.1)
+    0.7   e1 times out: fence 2 probes, b3 (reply at 1.3)
+    1.0   b2's reply: fence 2 must not take it for b3's (b2 was written before e1) ...
+    1.1   ... or the next ``e`` would take e1's late reply for its own, dated 0.5 s late
+    ====  =================================================================================
+
+    Checked on the board's own record: the n-th ``e`` the host writes is the n-th reading the
+    board takes, so every accepted reading must be exactly that one.
+    """
+    board = fake_board()
+    counters = StatusCounters(time.monotonic)
+    link = SerialLink(
+        SerialConfig(port=str(board.link), read_timeout_s=0.2, stale_timeout_s=10.0),
+        counters, threading.Event(),
+    )  # fmt: skip
+    link.open()
+    try:
+        link.handshake()
+        assert isinstance(link.exchange(encode_motor_speeds(43, 0), parse_ok), Answered)
+        reads = board.board.firmware.encoder_reads
+        first = len(reads)  # the handshake's requests were all answered in step
+        board.board.script_delays([0.3, 0.3, 0.6, 0.6, 0.6])  # e0, b1, b2, e1, b3
+        results = []
+        while board.board.scripted_delays_left or len(results) < 5:
+            assert len(results) < 40, "the scenario did not play out"
+            results.append(link.exchange(encode_read_encoders(), parse_encoders))
+    finally:
+        link.close()
+    assert isinstance(results[0], Failed) and isinstance(results[1], Failed)
+    assert counters["resyncs"] >= 2 and counters["discarded_replies"] >= 2
+    records = list(reads)[first:]
+    for index, result in enumerate(results):
+        if isinstance(result, Answered):
+            _, left, right = records[index]
+            assert result.value == (left, right), (
+                f"request {index} accepted {result.value}, the board's reading for it was "
+                f"{(left, right)}: a late reply taken for a later request's"
+            )
 
 
 def test_reading_is_dated_when_the_request_reached_the_board(
