@@ -158,8 +158,11 @@ def test_gaps_in_the_input_are_a_warning(start_node, ros, config_dir):
     for node in ("kinematics", "monitor"):
         status, values = gap_warning(node)
         assert "gap" in status.message, status.message
-        # Measured over the stamps of what arrived: at most the published 88 % of 200 Hz.
-        assert 0.0 < float(values["input_rate_hz"]) <= 200.0 * 0.88 + 1.0, values
+        # Measured over the stamps of what arrived in one diagnostics period. The period is
+        # wall-clock time, not aligned with the 0.5 s loss pattern, and a busy test process
+        # publishes unevenly, so a period's stamps may hold one gap in just under a second:
+        # (198 - 12) / 0.99 s = 188 Hz at most, below the 200 Hz of an intact stream.
+        assert 0.0 < float(values["input_rate_hz"]) <= 200.0 * 0.95, values
         assert math.isclose(float(values["sample_interval_ms"]), 5.0, abs_tol=0.5), values
         assert float(values["longest_gap_ms"]) >= 60.0, values
 
