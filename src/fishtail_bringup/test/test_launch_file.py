@@ -14,12 +14,15 @@ from pathlib import Path
 
 import pytest
 
-launch = pytest.importorskip(
-    "launch", reason="upstream ROS 2 launch not installed (make setup installs it when the "
-    "pinned sources, ../shared/upstream or FISHTAIL_ROS2_UPSTREAM, are there)",
-)  # fmt: skip
-launch_ros_actions = pytest.importorskip("launch_ros.actions")
+# launch_ros first: this package's own launch/ folder makes ``import launch`` succeed as an empty
+# namespace package wherever the package directory is on the path.
+launch_ros_actions = pytest.importorskip(
+    "launch_ros.actions",
+    reason="upstream ROS 2 launch not installed (make setup installs it when the pinned "
+    "sources, ../shared/upstream or FISHTAIL_ROS2_UPSTREAM, are there)",
+)
 
+import launch  # noqa: E402
 from launch.actions import DeclareLaunchArgument  # noqa: E402
 from launch.launch_description_sources import (  # noqa: E402
     get_launch_description_from_python_launch_file,
