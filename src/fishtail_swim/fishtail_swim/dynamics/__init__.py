@@ -1,0 +1,1 @@
+"""Planar rigid-body swimming driven by the tail (numpy only; see docs/swimming-dynamics.md)."""
