@@ -27,7 +27,7 @@ import numpy.typing as npt
 from fishtail_swim.dynamics.errors import BeatAlignmentError, NoSteadySpeedError
 from fishtail_swim.dynamics.fish import FishParameters, FloatArray
 from fishtail_swim.dynamics.integrator import Trajectory
-from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, X, Y, YAW_RATE, SwimModel
+from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, SwimModel, X, Y
 from fishtail_swim.dynamics.model import trailing_edge_force as _trailing_edge_force
 from fishtail_swim.dynamics.tail_drive import TailDrive
 
@@ -40,7 +40,7 @@ CYCLE_SAMPLES = 128
 class BeatWindow(NamedTuple):
     """Record indices of the beat ends of each fish: shape (beats + 1, N), the last beat last."""
 
-    indices: FloatArray
+    indices: npt.NDArray[np.int_]
     duration_s: FloatArray
 
 
@@ -73,7 +73,8 @@ def _window_mean(values: FloatArray, time_s: FloatArray, window: BeatWindow) -> 
     integral = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(steps, axis=0)])
     fish = np.arange(values.shape[1])
     start, end = window.indices[0], window.indices[-1]
-    return (integral[end, fish] - integral[start, fish]) / window.duration_s
+    mean = (integral[end, fish] - integral[start, fish]) / window.duration_s
+    return np.asarray(mean, dtype=float)
 
 
 class BeatMeans(NamedTuple):

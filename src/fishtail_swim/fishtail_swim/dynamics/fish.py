@@ -11,10 +11,10 @@ element, no per-fish loop.
 >>> fish = FishParameters()
 >>> round(fish.surge_mass_kg, 3), round(fish.sway_mass_kg, 3), round(fish.yaw_inertia_kg_m2, 4)
 (12.108, 18.45, 0.2073)
->>> FishParameters(drag_coefficient=np.array([0.3, -1.0]))
+>>> FishParameters(drag_coefficient=np.array([0.3, -1.0]))  # doctest: +ELLIPSIS
 Traceback (most recent call last):
 ...
-fishtail_swim.dynamics.errors.SwimParameterError: drag_coefficient = -1.0 is outside [0.0, 100.0] (fish 1)
+fishtail_swim...SwimParameterError: drag_coefficient = -1.0 is outside [0.0, 100.0] (fish 1)
 """
 
 from __future__ import annotations
@@ -177,4 +177,5 @@ class FishParameters:
     @property
     def lift_factor_kg_m(self) -> PerFish:
         """½ rho S C_L: the body's lift is this times beta V (v, -u)."""
-        return 0.5 * self.water_density_kg_m3 * self.reference_area_m2 * self.lift_coefficient_per_rad
+        dynamic_area = 0.5 * self.water_density_kg_m3 * self.reference_area_m2
+        return dynamic_area * self.lift_coefficient_per_rad

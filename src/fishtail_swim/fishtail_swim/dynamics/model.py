@@ -81,7 +81,9 @@ def trailing_edge_force(
     )
 
 
-def body_force(fish: FishParameters, u: FloatArray, v: FloatArray, r: FloatArray) -> GeneralisedForce:
+def body_force(
+    fish: FishParameters, u: FloatArray, v: FloatArray, r: FloatArray
+) -> GeneralisedForce:
     """Drag -½ rho S C_D V (u, v), lift ½ rho S C_L beta V (v, -u) while u > 0, -K_D r|r|."""
     speed = np.hypot(u, v)
     forward = u > 0.0
@@ -141,9 +143,8 @@ def fin_recoil(
     direction = (sin_fin, cos_fin, mid_x * cos_fin - mid_y * sin_fin)
     tangent = (cos_fin, -sin_fin, -mid_x * sin_fin - mid_y * cos_fin)
     turning = normal * (rate - r)
-    rest = GeneralisedForce(
-        *(-mass * (normal_rate_rest * g + turning * t) for g, t in zip(direction, tangent, strict=True))
-    )
+    pairs = zip(direction, tangent, strict=True)
+    rest = GeneralisedForce(*(-mass * (normal_rate_rest * g + turning * t) for g, t in pairs))
     return Recoil(direction, np.asarray(mass, dtype=float), rest)
 
 

@@ -15,8 +15,8 @@ a fish's fin has a chord (the recoil term), their accelerations.
 >>> drive = SinusoidalTailDrive(fin_length_m=0.2, mean_angle_rad=0.0, amplitude_rad=0.3,
 ...                             angular_frequency_rad_s=2 * math.pi)
 >>> sample = drive.sample(0.0)
->>> float(sample.tip_x), float(sample.tip_y_dot), round(float(sample.fin_rate), 4)
-(0.2, 0.37699111843077515, 1.885)
+>>> float(sample.tip_x), round(float(sample.tip_y_dot), 6), round(float(sample.fin_rate), 4)
+(0.2, 0.376991, 1.885)
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ CarrierMotion = Callable[[npt.ArrayLike], tuple[FloatArray, FloatArray, FloatArr
 
 
 def constant_carrier_speed(speed_rad_s: PerFish) -> CarrierMotion:
-    """phi = phi_dot t from rest at phi = 0, one speed per fish (the spec's runs)."""
+    """The carrier at constant speed from phi = 0: phi = phi_dot t, one speed per fish."""
     speed = np.asarray(speed_rad_s, dtype=float)
     if not np.isfinite(speed).all():
         bad = speed.ravel()[np.flatnonzero(~np.isfinite(speed.ravel()))[0]]
@@ -105,7 +105,8 @@ class EngineTailDrive:
         return (
             _as_array(state.tip_x), _as_array(state.tip_y),
             _as_array(state.tip_x_dot), _as_array(state.tip_y_dot),
-            _as_array(getattr(state, self._angle_field)), _as_array(getattr(state, self._rate_field)),
+            _as_array(getattr(state, self._angle_field)),
+            _as_array(getattr(state, self._rate_field)),
         )  # fmt: skip
 
     def sample(self, time_s: npt.ArrayLike) -> TailSample:
@@ -114,7 +115,10 @@ class EngineTailDrive:
         return TailSample(*self._pose_and_rates(angle, speed))
 
     def acceleration(self, time_s: npt.ArrayLike) -> TailAcceleration:
-        """q'' phi_dot² + q' phi_ddot, with q'' a central difference of the engine's exact q'."""
+        """The second derivatives q'' phi_dot² + q' phi_ddot of the tip and the fin angle.
+
+        q' is the engine's exact rate at unit carrier speed, q'' its central difference in phi.
+        """
         angle, speed, carrier_acceleration = self.carrier(time_s)
         unit = np.ones_like(angle)
         ahead = self._pose_and_rates(angle + _ANGLE_STEP_RAD, unit)
@@ -171,7 +175,7 @@ class SinusoidalTailDrive:
         return angle, rate, acceleration
 
     def sample(self, time_s: npt.ArrayLike) -> TailSample:
-        """T = l_fin (cos theta, sin theta), its velocity l_fin theta_dot (-sin theta, cos theta)."""
+        """T = l_fin (cos theta, sin theta) and its velocity l_fin theta_dot (-sin, cos)."""
         angle, rate, _ = self._angle(time_s)
         cos_angle, sin_angle = np.cos(angle), np.sin(angle)
         length = self.fin_length_m
