@@ -86,6 +86,24 @@ TAIL_MARKERS = Topic(
     QosKind.RELIABLE,
     "ring, planet, links, joints and tip trail for RViz",
 )
+FISH_ODOM = Topic(
+    "fish/odom",
+    "nav_msgs/msg/Odometry",
+    QosKind.SENSOR_DATA,
+    "simulated fish: pose X, Y, yaw in world, twist u, v, r in base_link, per carrier sample",
+)
+FISH_MARKERS = Topic(
+    "fish/markers",
+    "visualization_msgs/msg/MarkerArray",
+    QosKind.RELIABLE,
+    "simulated fish's body outline, path and tail in world for RViz",
+)
+FISH_SWIMMING = Topic(
+    "fish/swimming",
+    "fishtail_msgs/msg/SwimFigures",
+    QosKind.LATCHED,
+    "simulated fish's swimming figures, one message per beat",
+)
 DIAGNOSTICS = Topic(
     "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosKind.RELIABLE, "every node's health"
 )
@@ -105,6 +123,10 @@ SUITE_TOPICS: tuple[Topic, ...] = (
 CARRIER_JOINT = "carrier_joint"
 #: The frame of the tail mechanism: origin at the ring-gear centre O, x along the stroke.
 TAIL_FRAME = "tail_mechanism"
+#: The fixed frame the simulated fish swims in (x, y horizontal, z up).
+WORLD_FRAME = "world"
+#: The simulated fish's body frame (REP 103): origin at its centre of mass, x forward, y left.
+BODY_FRAME = "base_link"
 #: fishtail_msgs/TailState.mechanism of each mechanism (its MECHANISM_* constants).
 MECHANISM_CODES = {"oscillatory": 1, "undulatory": 2}
 
