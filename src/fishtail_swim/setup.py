@@ -19,4 +19,9 @@ setup(
     description="Planar swimming dynamics of the robotic fish driven by its tail mechanism.",
     license="Apache-2.0",
     tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "fishtail-swim = fishtail_swim.offline.cli:main",
+        ],
+    },
 )

@@ -1,0 +1,227 @@
+"""``fishtail-swim``: steady swimming over carrier speeds, and time-stepped runs to CSV and figures.
+
+The tail comes from a kinematics parameter file (``--config config/oscillatory.yaml``), the fish
+from ``--fish`` (``config/fish.yaml``); flags named after the parameters override both. Bad input
+ends with a one-line error and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from fishtail_common.parameters import ParameterValueError
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_kinematics.offline.command_line import OneLineErrorParser
+from fishtail_swim.dynamics.errors import SwimError
+from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_swim.offline import run_output
+from fishtail_swim.offline.inputs import (
+    UsageError,
+    number,
+    positive_number,
+    swimmer_arguments,
+    swimmer_from_arguments,
+)
+from fishtail_swim.offline.progress import Progress
+from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
+from fishtail_swim.offline.tables import Column, write_table
+from fishtail_swim.offline.time_run import run_figures, run_from_rest
+
+PROGRAM = "fishtail-swim"
+DEFAULT_SPEEDS = "2,4,8,12,16"
+#: Most carrier speeds one steady table computes (one batch).
+MAX_SPEEDS = 100_000
+
+
+def _carrier_speed(text: str) -> float:
+    value = number(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(
+            f"carrier speed must be > 0 rad/s (the fish needs a beating tail), got {text}"
+        )
+    return value
+
+
+def _speed_list(text: str) -> FloatArray:
+    speeds = [_carrier_speed(item.strip()) for item in text.split(",") if item.strip()]
+    if not speeds:
+        raise argparse.ArgumentTypeError(f"no carrier speeds in {text!r}")
+    if len(speeds) > MAX_SPEEDS:
+        raise argparse.ArgumentTypeError(f"at most {MAX_SPEEDS} speeds, got {len(speeds)}")
+    return np.array(speeds)
+
+
+def _speed_range(text: str) -> FloatArray:
+    parts = text.split(":")
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"expected first:last:count, got {text!r}")
+    first, last = _carrier_speed(parts[0]), _carrier_speed(parts[1])
+    try:
+        count = int(parts[2])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"count is not an integer: {parts[2]!r}") from None
+    if not 1 <= count <= MAX_SPEEDS:
+        raise argparse.ArgumentTypeError(f"count must be 1 to {MAX_SPEEDS}, got {count}")
+    if last < first:
+        raise argparse.ArgumentTypeError(f"last speed {last:g} is below the first {first:g}")
+    return np.linspace(first, last, count)
+
+
+def _steps_per_beat(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 4 <= value <= 100_000:
+        raise argparse.ArgumentTypeError(f"must be between 4 and 100000, got {value}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser (exposed for tests)."""
+    swimmer = swimmer_arguments()
+    parser = OneLineErrorParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    steady = commands.add_parser(
+        "steady", parents=[swimmer],
+        help="cycle-average steady speed, thrust, power, efficiency and St over carrier speeds",
+    )  # fmt: skip
+    speeds = steady.add_mutually_exclusive_group()
+    speeds.add_argument(
+        "--speeds", type=_speed_list,
+        help=f"carrier speeds [rad/s], comma-separated ({DEFAULT_SPEEDS})",
+    )  # fmt: skip
+    speeds.add_argument(
+        "--speed-range", dest="speeds", type=_speed_range, metavar="FIRST:LAST:COUNT",
+        help="COUNT carrier speeds evenly from FIRST to LAST rad/s",
+    )  # fmt: skip
+    steady.add_argument("--csv", action="store_true", help="CSV instead of an aligned table")
+    steady.add_argument(
+        "--check", action="store_true",
+        help="also step the free body (sway and yaw free) from rest at the first, middle and last "
+        "speed, and print its figures beside the balance's",
+    )  # fmt: skip
+    simulate = commands.add_parser(
+        "simulate", parents=[swimmer], help="a time-stepped run from rest to CSV (and figures)"
+    )
+    simulate.add_argument("--speed", type=_carrier_speed, default=4.0, help="carrier rad/s (4)")
+    simulate.add_argument(
+        "--duration", type=positive_number, default=60.0, help="simulated seconds (60)"
+    )
+    simulate.add_argument(
+        "--steps-per-beat", type=_steps_per_beat, default=32,
+        help="RK4 steps per tail beat (32); the step is the beat period over this",
+    )  # fmt: skip
+    simulate.add_argument("--output", type=Path, required=True, help="CSV file to write")
+    simulate.add_argument("--figures", type=Path, metavar="DIR", help="write PNG figures here")
+    return parser
+
+
+def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Print the balance's table; with --check, the free body's figures for three rows."""
+    swimmer = swimmer_from_arguments(arguments)
+    speeds = arguments.speeds if arguments.speeds is not None else _speed_list(DEFAULT_SPEEDS)
+    rows = steady_rows(swimmer, speeds)
+    write_table(
+        [
+            Column("carrier [rad/s]", rows.carrier_speed_rad_s, ".4g", "carrier_speed_rad_s"),
+            Column("f [Hz]", rows.beat_frequency_hz, ".4f", "beat_frequency_hz"),
+            Column("U [m/s]", rows.speed_m_s, ".4f", "speed_m_s"),
+            Column("U [L/s]", rows.body_lengths_per_s, ".3f", "body_lengths_per_s"),
+            Column("St", rows.strouhal_number, ".3f", "strouhal_number"),
+            Column("thrust [N]", rows.mean_thrust_n, ".4g", "mean_thrust_n"),
+            Column("power [W]", rows.tail_power_w, ".4g", "tail_power_w"),
+            Column("efficiency", rows.froude_efficiency, ".3f", "froude_efficiency"),
+        ],
+        out,
+        arguments.csv,
+    )
+    if not arguments.check:
+        return
+    checked = check_rows(swimmer, rows, checked_indices(rows.speed_m_s.size))
+    change = checked.speed_m_s / checked.balance_speed_m_s - 1.0
+    if not arguments.csv:
+        out.write(
+            "\nfree body (sway and yaw free), stepped from rest: figures over the last 2 of "
+            "50 beats at 32 steps a beat\n"
+        )
+    else:
+        out.write("\n")
+    write_table(
+        [
+            Column("carrier [rad/s]", checked.carrier_speed_rad_s, ".4g", "carrier_speed_rad_s"),
+            Column("U held [m/s]", checked.balance_speed_m_s, ".4f", "held_speed_m_s"),
+            Column("U free [m/s]", checked.speed_m_s, ".4f", "free_speed_m_s"),
+            Column("change [%]", 100.0 * change, "+.2f", "change_percent"),
+            Column("St free", checked.strouhal_number, ".3f", "free_strouhal_number"),
+            Column("efficiency free", checked.froude_efficiency, ".3f", "free_froude_efficiency"),
+            Column("<v> [m/s]", checked.mean_sway_m_s, ".2e", "mean_sway_m_s"),
+            Column("turning radius [m]", checked.turning_radius_m, ".4g", "turning_radius_m"),
+        ],
+        out,
+        arguments.csv,
+    )
+
+
+def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Step the fish from rest, write the CSV (and figures), print the summary."""
+    swimmer = swimmer_from_arguments(arguments)
+    period = 2.0 * math.pi / arguments.speed
+    step = period / arguments.steps_per_beat
+    steps = math.ceil(arguments.duration / step - 1e-9)
+    if steps * step < period * (1.0 - 1e-9):
+        raise UsageError(
+            f"--duration {arguments.duration:g} s is shorter than one beat ({period:.6g} s at "
+            f"{arguments.speed:g} rad/s)"
+        )
+    directory: Path | None = arguments.figures
+    if directory is not None:
+        try:
+            directory.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise UsageError(f"cannot create {directory}: {error.strerror}") from None
+    if not arguments.output.parent.is_dir():
+        raise UsageError(f"cannot write {arguments.output}: no directory {arguments.output.parent}")
+    progress = Progress("simulate", steps)
+    run = run_from_rest(swimmer, np.array([arguments.speed]), step, steps, progress)
+    figures = run_figures(run)
+    try:
+        run_output.write_run_csv(run, arguments.output)
+        written = [] if directory is None else run_output.write_figures(run, figures, directory)
+    except OSError as error:
+        raise UsageError(f"cannot write: {error.strerror or error}") from None
+    run_output.print_summary(run, figures, swimmer.fish, out)
+    for path in [arguments.output, *written]:
+        print(f"wrote {path}", file=out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``fishtail-swim``."""
+    parser = build_parser()
+    arguments = parser.parse_args(argv)
+    command: Callable[[argparse.Namespace, TextIO], None] = {
+        "steady": run_steady,
+        "simulate": run_simulate,
+    }[arguments.command]
+    try:
+        command(arguments, sys.stdout)
+    except (SwimError, FishtailKinematicsError, ParameterValueError, UsageError) as error:
+        message = " ".join(str(error).split())
+        print(f"{PROGRAM}: error: {message}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        # `fishtail-swim steady | head` is normal use, not an error.
+        sys.stderr.close()
+        return 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

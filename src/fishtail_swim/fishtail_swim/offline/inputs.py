@@ -1,0 +1,117 @@
+"""The fish and its tail from the command line: parameter files, then flags named after the specs.
+
+The tail's geometry comes from ``--config`` (a kinematics parameter file such as
+``config/oscillatory.yaml``) and the geometry flags of ``fishtail-kinematics``; the fish from
+``--fish`` (``config/fish.yaml`` by default) and one flag per fish parameter
+(``--drag-coefficient 0.2``). Flags win over files. Every value is checked by its spec.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import NamedTuple
+
+from fishtail_common.config_files import default_parameter_file
+from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
+from fishtail_kinematics.engine.mechanisms import Tail, make_tail
+from fishtail_kinematics.engine.parameters import (
+    MECHANISM,
+    geometry_from_parameters,
+    geometry_parameters_in,
+)
+from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
+from fishtail_kinematics.offline.parameter_files import load_parameter_file
+from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
+from fishtail_swim.fish_config import read_fish_values
+
+#: The fish's parameter file, under config/ of the workspace or of the install.
+FISH_FILE = "fish"
+#: The tail's parameter file when neither --config nor --mechanism says otherwise.
+DEFAULT_MECHANISM = "oscillatory"
+
+
+class UsageError(Exception):
+    """Bad command-line input; reported as one line with exit status 2."""
+
+
+class Swimmer(NamedTuple):
+    """What a command swims: the fish's parameters and the engine's tail."""
+
+    fish: FishParameters
+    tail: Tail
+
+
+def number(text: str) -> float:
+    """A finite float (NaN and infinities are refused here, ranges by the specs)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
+    return value
+
+
+def positive_number(text: str) -> float:
+    """A finite float > 0."""
+    value = number(text)
+    if value <= 0.0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def swimmer_arguments() -> OneLineErrorParser:
+    """The parent parser of the tail's and the fish's files and flags."""
+    parent = OneLineErrorParser(add_help=False)
+    tail = parent.add_argument_group("tail geometry (SI units; flags override --config)")
+    tail.add_argument(
+        "--config", type=Path,
+        help="kinematics parameter file (default config/oscillatory.yaml, or "
+        "config/<mechanism>.yaml with --mechanism)",
+    )  # fmt: skip
+    tail.add_argument("--" + MECHANISM.name, choices=MECHANISM.choices, help=MECHANISM.text)
+    add_parameter_flags(tail, GEOMETRY_PARAMETERS, number)
+    fish = parent.add_argument_group("fish (SI units; flags override --fish)")
+    fish.add_argument("--fish", type=Path, help="fish parameter file (default config/fish.yaml)")
+    add_parameter_flags(fish, FISH_PARAMETERS, number)
+    return parent
+
+
+def _default_file(name: str) -> Path:
+    try:
+        return default_parameter_file(name)
+    except LookupError as error:
+        raise UsageError(str(error)) from None
+
+
+def _existing(path: Path, option: str) -> Path:
+    # Said here, in the option's words, rather than as the reader's OSError.
+    if not path.is_file():
+        raise UsageError(f"{option} {path}: no such file")
+    return path
+
+
+def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
+    """Merge the files and flags into a checked fish and a tail that assembles."""
+    if arguments.config is not None:
+        config = _existing(arguments.config, "--config")
+    else:
+        config = _default_file(arguments.mechanism or DEFAULT_MECHANISM)
+    geometry_values: dict[str, object] = dict(geometry_parameters_in(load_parameter_file(config)))
+    if arguments.mechanism is not None:
+        geometry_values[MECHANISM.name] = arguments.mechanism
+    for spec in GEOMETRY_PARAMETERS:
+        if getattr(arguments, spec.name) is not None:
+            geometry_values[spec.name] = getattr(arguments, spec.name)
+    tail = make_tail(geometry_from_parameters(geometry_values))
+    if arguments.fish is not None:
+        fish_file = _existing(arguments.fish, "--fish")
+    else:
+        fish_file = _default_file(FISH_FILE)
+    fish_values: dict[str, object] = dict(read_fish_values(fish_file))
+    for spec in FISH_PARAMETERS:
+        if getattr(arguments, spec.name) is not None:
+            fish_values[spec.name] = getattr(arguments, spec.name)
+    return Swimmer(FishParameters.from_values(fish_values), tail)

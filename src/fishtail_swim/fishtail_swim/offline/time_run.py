@@ -1,0 +1,105 @@
+"""Time-stepped runs from rest with the engine in the loop, and their figures over whole beats.
+
+The stepping loop is :func:`~fishtail_swim.dynamics.integrator.simulate`'s (classical RK4, the
+engine solved at every sub-step time, times from the step count) with a progress report every few
+hundred steps; the figures are the dynamics library's (beat means, tail figures).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from fishtail_swim.dynamics.errors import SwimInputError
+from fishtail_swim.dynamics.figures import BeatMeans, TailFigures, beat_means, tail_figures
+from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_swim.dynamics.integrator import Trajectory, rk4_step
+from fishtail_swim.dynamics.model import STATE_SIZE, SwimModel
+from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_swim.offline.inputs import Swimmer
+from fishtail_swim.offline.progress import Progress
+
+#: Beats the figures of a run are taken over (the last whole ones).
+SUMMARY_BEATS = 2
+# Steps between progress reports: rare enough to cost nothing, often enough for 0.1 s updates.
+_STEPS_PER_REPORT = 200
+
+
+class TimeRun(NamedTuple):
+    """A batch of fish stepped from rest: the model, the drive and the recorded trajectory."""
+
+    model: SwimModel
+    drive: EngineTailDrive
+    carrier_speed_rad_s: FloatArray
+    trajectory: Trajectory
+
+    @property
+    def beat_period_s(self) -> FloatArray:
+        """One carrier revolution is one tail beat."""
+        return 2.0 * np.pi / self.carrier_speed_rad_s
+
+
+class RunFigures(NamedTuple):
+    """Beat means and tail figures over the last ``beats`` whole beats, one element per fish."""
+
+    beats: int
+    start_s: FloatArray
+    end_s: FloatArray
+    means: BeatMeans
+    tail: TailFigures
+
+
+def run_from_rest(
+    swimmer: Swimmer,
+    carrier_speed_rad_s: FloatArray,
+    step_s: float,
+    steps: int,
+    progress: Progress | None = None,
+    hold_sway_yaw: bool = False,
+) -> TimeRun:
+    """Step one fish per carrier speed (same fish parameters, or per-fish arrays) from rest."""
+    speeds = np.atleast_1d(np.asarray(carrier_speed_rad_s, dtype=float))
+    if not (math.isfinite(step_s) and step_s > 0.0) or steps < 1:
+        raise SwimInputError(f"a run needs a positive step and steps, got {step_s!r}, {steps}")
+    drive = EngineTailDrive(swimmer.tail, constant_carrier_speed(speeds))
+    model = SwimModel(swimmer.fish, drive, hold_sway_yaw=hold_sway_yaw)
+    state = np.zeros((speeds.size, STATE_SIZE))
+    states = np.empty((steps + 1, speeds.size, STATE_SIZE))
+    states[0] = state
+    for step in range(steps):
+        # Times from the step count, not by accumulation: the beat ends stay on samples.
+        state = rk4_step(model.derivatives, step * step_s, state, step_s)
+        states[step + 1] = state
+        if progress is not None and step % _STEPS_PER_REPORT == 0:
+            progress.update(step)
+            if not np.isfinite(state).all():
+                break
+    if progress is not None:
+        progress.finish()
+    if not np.isfinite(states).all():
+        raise SwimInputError("the integration diverged (non-finite state): use more steps per beat")
+    time_s = np.arange(steps + 1, dtype=np.float64) * step_s
+    return TimeRun(model, drive, speeds, Trajectory(time_s, states))
+
+
+def whole_beats(run: TimeRun) -> int:
+    """The number of whole beats every fish of the run completed."""
+    complete = np.floor(run.trajectory.time_s[-1] / run.beat_period_s * (1.0 + 1e-9))
+    return int(complete.min())
+
+
+def run_figures(run: TimeRun, beats: int = SUMMARY_BEATS) -> RunFigures:
+    """Ū, <v>, <r>, turning radius, thrust, power, efficiency and St over the last whole beats."""
+    beats = min(beats, whole_beats(run))
+    if beats < 1:
+        raise SwimInputError(
+            f"the run ({run.trajectory.time_s[-1]:.6g} s) is shorter than one beat "
+            f"({float(run.beat_period_s.max()):.6g} s)"
+        )
+    periods = run.beat_period_s
+    means = beat_means(run.trajectory, periods, beats)
+    tail = tail_figures(run.model, run.trajectory, periods, beats)
+    end = np.floor(run.trajectory.time_s[-1] / periods * (1.0 + 1e-9)) * periods
+    return RunFigures(beats, end - beats * periods, end, means, tail)
