@@ -1,0 +1,93 @@
+"""``fishtail-swim``: every bad input is one line on stderr and exit status 2; --help works."""
+
+from pathlib import Path
+
+import pytest
+
+from fishtail_swim.offline.cli import main
+
+CONFIG = Path(__file__).resolve().parents[3] / "config"
+OSCILLATORY = CONFIG / "oscillatory.yaml"
+FISH = CONFIG / "fish.yaml"
+
+
+def run_cli(capsys, *arguments):
+    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
+    try:
+        status = main([str(argument) for argument in arguments])
+    except SystemExit as exit_:
+        status = exit_.code
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+@pytest.fixture
+def bad_files(tmp_path):
+    """Parameter files that cannot be used, by name."""
+    files = {
+        "not_yaml": "/**: [unclosed\n",
+        "unknown_fish": "/**:\n  ros__parameters:\n    fin_colour: 3.0\n",
+        "negative_fish": "/**:\n  ros__parameters:\n    body_mass_kg: -1.0\n",
+        "no_parameters": "just text\n",
+    }
+    for name, text in files.items():
+        (tmp_path / f"{name}.yaml").write_text(text, encoding="utf-8")
+    return tmp_path
+
+
+STEADY = ("steady", "--config", OSCILLATORY, "--fish", FISH)
+
+
+@pytest.mark.parametrize(
+    ("arguments", "words"),
+    [
+        (("steady", "--config", "/no/such.yaml"), "no such file"),
+        (("steady", "--fish", "/no/such.yaml"), "no such file"),
+        (("steady", "--config", "{tmp}/not_yaml.yaml"), "not valid YAML"),
+        (("steady", "--config", "{tmp}/no_parameters.yaml"), "not a ROS 2 parameter file"),
+        ((*STEADY[:3], "--fish", "{tmp}/unknown_fish.yaml"), "unknown fish parameter"),
+        ((*STEADY[:3], "--fish", "{tmp}/negative_fish.yaml"), "body_mass_kg"),
+        ((*STEADY, "--speeds", "4,abc"), "not a number"),
+        ((*STEADY, "--speeds", "-4"), "must be > 0"),
+        ((*STEADY, "--speeds", "0"), "must be > 0"),
+        ((*STEADY, "--speeds", "nan"), "not a finite number"),
+        ((*STEADY, "--speed-range", "8:2:4"), "below the first"),
+        ((*STEADY, "--speed-range", "2:8"), "first:last:count"),
+        ((*STEADY, "--speed-range", "2:8:0"), "count must be"),
+        ((*STEADY, "--drag-coefficient", "nan"), "not a finite number"),
+        ((*STEADY, "--drag-coefficient", "-1"), "drag_coefficient"),
+        ((*STEADY, "--body-length-m", "inf"), "not a finite number"),
+        ((*STEADY, "--crank-link-m", "0.5"), "cannot assemble"),
+        ((*STEADY, "--ring-radius-m", "-0.1"), "ring_radius_m"),
+        ((*STEADY, "--speeds", "4", "--speed-range", "2:8:3"), "not allowed with"),
+        (("simulate", "--output", "{tmp}/missing/run.csv"), "no directory"),
+        (("simulate", "--output", "{tmp}/run.csv", "--speed", "0"), "must be > 0"),
+        (("simulate", "--output", "{tmp}/run.csv", "--speed", "-2"), "must be > 0"),
+        (("simulate", "--output", "{tmp}/run.csv", "--duration", "0"), "must be > 0"),
+        (("simulate", "--output", "{tmp}/run.csv", "--duration", "0.5"), "shorter than one beat"),
+        (("simulate", "--output", "{tmp}/run.csv", "--steps-per-beat", "2"), "between 4"),
+        (("simulate",), "--output"),
+        (("swim",), "invalid choice"),
+        ((), "required"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(capsys, bad_files, arguments, words):
+    arguments = [str(a).replace("{tmp}", str(bad_files)) for a in arguments]
+    if arguments and arguments[0] == "simulate" and "--config" not in arguments:
+        arguments[1:1] = ["--config", str(OSCILLATORY), "--fish", str(FISH)]
+    status, out, err = run_cli(capsys, *arguments)
+    assert status == 2
+    assert out == ""
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("fishtail-swim") and ": error: " in lines[0]
+    assert words in lines[0]
+    assert not (bad_files / "run.csv").exists()
+
+
+@pytest.mark.parametrize("command", [(), ("steady",), ("simulate",)])
+def test_help_works(capsys, command):
+    status, out, err = run_cli(capsys, *command, "--help")
+    assert status == 0
+    assert out.startswith("usage: fishtail-swim")
+    assert err == ""
