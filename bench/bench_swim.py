@@ -1,0 +1,104 @@
+"""Swimming dynamics throughput: one fish in real time, a batch sweep, the steady table.
+
+Prints figures only; targets (one core): (a) one fish stepped at 1 kHz with the engine in the loop
+(RK4, the engine solved at every sub-step) >= 200x faster than real time; (b) 100 fish (100 drag
+coefficients, one batch of arrays) x 60 simulated s at 1 kHz in <= 10 s; (c) `fishtail-swim
+steady` for 50 carrier speeds in < 1 s. Run with `make bench`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry
+from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_swim.dynamics.fish import FishParameters
+from fishtail_swim.dynamics.integrator import simulate
+from fishtail_swim.dynamics.model import SwimModel
+from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_swim.offline.inputs import Swimmer
+from fishtail_swim.offline.steady_table import steady_rows
+
+STEP_S = 1e-3
+CARRIER_SPEED_RAD_S = 4.0
+REAL_TIME_TARGET = 200.0
+SWEEP_FISH = 100
+SWEEP_SPAN_S = 60.0
+SWEEP_TARGET_S = 10.0
+STEADY_SPEEDS = 50
+STEADY_TARGET_S = 1.0
+#: Simulated seconds actually stepped for (a) and (b): enough for a stable rate, short enough
+#: for `make bench`; (b) is extrapolated linearly to SWEEP_SPAN_S (the cost per step is constant).
+SINGLE_SPAN_S = 5.0
+SWEEP_MEASURED_S = 3.0
+
+
+def best_of(function, repeats: int) -> float:
+    """Shortest wall time of ``repeats`` calls, in seconds (the least disturbed run)."""
+    best = math.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def verdict(met: bool) -> str:
+    """The word printed after a figure and its target."""
+    return "met" if met else "MISSED"
+
+
+def step_fish(fish: FishParameters, count: int, span_s: float) -> None:
+    """``count`` fish from rest for ``span_s`` at STEP_S, recording only the last state."""
+    speeds = np.full(count, CARRIER_SPEED_RAD_S)
+    drive = EngineTailDrive(make_tail(OscillatoryGeometry()), constant_carrier_speed(speeds))
+    steps = round(span_s / STEP_S)
+    simulate(SwimModel(fish, drive), count, STEP_S, steps, record_every=steps)
+
+
+def main() -> None:
+    """Print the figures."""
+    try:
+        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+        pinned = "pinned to one core"
+    except (AttributeError, OSError):
+        pinned = "not pinned"
+    print(f"swimming benchmark ({pinned}), mechanism 1, carrier {CARRIER_SPEED_RAD_S:g} rad/s")
+
+    step_fish(FishParameters(), 1, 0.1)  # warm-up: imports, first allocations
+    single_s = best_of(lambda: step_fish(FishParameters(), 1, SINGLE_SPAN_S), 3)
+    factor = SINGLE_SPAN_S / single_s
+    print(
+        f"(a) one fish at {1 / STEP_S:g} Hz, engine in the loop: {SINGLE_SPAN_S:g} s simulated "
+        f"in {single_s:.3f} s, {factor:.1f}x real time, "
+        f"{single_s / (SINGLE_SPAN_S / STEP_S) * 1e6:.1f} us/step "
+        f"(target >= {REAL_TIME_TARGET:g}x: {verdict(factor >= REAL_TIME_TARGET)})"
+    )
+
+    sweep = FishParameters(drag_coefficient=np.linspace(0.1, 1.0, SWEEP_FISH))
+    sweep_measured_s = best_of(lambda: step_fish(sweep, SWEEP_FISH, SWEEP_MEASURED_S), 2)
+    sweep_s = sweep_measured_s * SWEEP_SPAN_S / SWEEP_MEASURED_S
+    print(
+        f"(b) {SWEEP_FISH} fish (drag coefficients 0.1 to 1.0, one batch) x {SWEEP_SPAN_S:g} s at "
+        f"{1 / STEP_S:g} Hz: {sweep_s:.1f} s, extrapolated from {SWEEP_MEASURED_S:g} simulated s "
+        f"in {sweep_measured_s:.2f} s ({SWEEP_FISH * SWEEP_MEASURED_S / sweep_measured_s:.0f} "
+        f"fish-seconds per second) (target <= {SWEEP_TARGET_S:g} s: "
+        f"{verdict(sweep_s <= SWEEP_TARGET_S)})"
+    )
+
+    swimmer = Swimmer(FishParameters(), make_tail(OscillatoryGeometry()))
+    speeds = np.linspace(2.0, 20.0, STEADY_SPEEDS)
+    steady_rows(swimmer, speeds)
+    steady_s = best_of(lambda: steady_rows(swimmer, speeds), 5)
+    print(
+        f"(c) steady table for {STEADY_SPEEDS} carrier speeds: {steady_s * 1e3:.1f} ms "
+        f"(target < {STEADY_TARGET_S:g} s: {verdict(steady_s < STEADY_TARGET_S)})"
+    )
+
+
+if __name__ == "__main__":
+    main()
