@@ -21,6 +21,7 @@ setup(
     tests_require=["pytest"],
     entry_points={
         "console_scripts": [
+            "sim = fishtail_swim.nodes.sim_node:main",
             "fishtail-swim = fishtail_swim.offline.cli:main",
         ],
     },

@@ -1,0 +1,270 @@
+"""One fish following a sampled carrier angle: RK4 between samples, swimming figures per beat.
+
+The simulator node feeds every accepted ``motor/joint_state`` sample (stamp, unwrapped carrier
+angle) to :meth:`SwimFollower.follow`; this module has no ROS in it.
+
+Between two consecutive samples the carrier angle is interpolated linearly, so the carrier turns
+at the constant speed (phi1 - phi0) / (t1 - t0) within the interval. That is the carrier's actual
+motion to first order: its error is of order phi_ddot dt² / 8 in the angle (zero at constant
+motor speed), and the samples' reported velocities are not used. The engine's tail is solved at
+every RK4 stage time of that interpolated motion (:class:`EngineTailDrive`, never an interpolated
+tail), and the interval is cut into equal sub-steps of at most ``max_step_s``.
+
+A beat is one carrier revolution, from a carrier angle that is a multiple of 2 pi to the next
+(the library's beats, which start at phi = 0 at t = 0). The time the angle crosses a boundary is
+found on the interpolated motion and made a sub-step boundary, so every beat starts and ends on
+an integrated state. The first beat starts at the first crossing, or when the carrier first moves
+forward from a boundary (the driver starts at phi = 0 and may idle there): an idle carrier never
+starts a beat. Over a beat the follower accumulates, by the trapezoid rule on the sub-step
+grid, the means of the trailing-edge force along body x and of the tail power, and the extremes of
+the tip's lateral position; at its end :class:`BeatFigures` gives the spec's figures with the
+library's definitions (:mod:`fishtail_swim.dynamics.figures` for one beat on a uniform grid gives
+the same numbers; the unit tests check that).
+
+An interval longer than ``max_interval_s`` (the input stopped, then resumed) is not integrated:
+the fish keeps its state, time jumps, and the beat in progress is abandoned.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_kinematics.engine.mechanisms import Tail
+from fishtail_swim.dynamics.fish import FishParameters, FloatArray
+from fishtail_swim.dynamics.integrator import rk4_step
+from fishtail_swim.dynamics.model import PSI, STATE_SIZE, SwimModel, X, Y
+from fishtail_swim.dynamics.tail_drive import EngineTailDrive
+
+TWO_PI = 2.0 * math.pi
+# Sub-intervals shorter than this are not integrated (a beat boundary that coincides with a
+# sample up to rounding): far below any step, far above the rounding of times of a long run.
+_MIN_SEGMENT_S = 1e-12
+
+
+class LinearCarrier:
+    """The carrier between two samples: phi = phi0 + phi_dot (t - t0), a CarrierMotion."""
+
+    def __init__(self) -> None:
+        """At rest at phi = 0 until :meth:`set` is called."""
+        self.start_time_s = 0.0
+        self.start_angle_rad = 0.0
+        self.speed_rad_s = 0.0
+
+    def set(self, start_time_s: float, start_angle_rad: float, speed_rad_s: float) -> None:
+        """Follow the line through (t0, phi0) with slope ``speed_rad_s`` from now on."""
+        self.start_time_s = start_time_s
+        self.start_angle_rad = start_angle_rad
+        self.speed_rad_s = speed_rad_s
+
+    def __call__(self, time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """phi, phi_dot and phi_ddot (0) at ``time_s``."""
+        elapsed = np.asarray(time_s, dtype=float) - self.start_time_s
+        angle = self.start_angle_rad + self.speed_rad_s * elapsed
+        return angle, np.full_like(angle, self.speed_rad_s), np.zeros_like(angle)
+
+
+class BeatFigures(NamedTuple):
+    """The spec's swimming figures of one complete beat (see fishtail_msgs/SwimFigures)."""
+
+    beat_index: int
+    end_time_s: float  # since the first sample
+    duration_s: float
+    frequency_hz: float
+    mean_speed_m_s: float
+    body_lengths_per_s: float
+    tip_excursion_m: float
+    strouhal_number: float
+    mean_thrust_n: float
+    mean_tail_power_w: float
+    froude_efficiency: float
+    turning_radius_m: float
+    heading_change_rad: float
+
+
+def _ratio(numerator: float, denominator: float) -> float:
+    # A figure divided by a zero speed or power: inf (or nan for 0/0), never an exception.
+    if denominator == 0.0:
+        return math.copysign(math.inf, numerator) if numerator != 0.0 else math.nan
+    return numerator / denominator
+
+
+class _BeatAccumulator:
+    """Integrals and extremes over the beat in progress, from its start state on."""
+
+    def __init__(self, time_s: float, state: FloatArray, thrust: float, power: float,
+                 tip_y: float) -> None:  # fmt: skip
+        self.start_time_s = time_s
+        self.start_pose = (float(state[0, X]), float(state[0, Y]), float(state[0, PSI]))
+        self.last_time_s = time_s
+        self.last_thrust = thrust
+        self.last_power = power
+        self.thrust_integral = 0.0
+        self.power_integral = 0.0
+        self.tip_y_low = tip_y
+        self.tip_y_high = tip_y
+
+    def add(self, time_s: float, thrust: float, power: float, tip_y: float) -> None:
+        half_step = 0.5 * (time_s - self.last_time_s)
+        self.thrust_integral += half_step * (thrust + self.last_thrust)
+        self.power_integral += half_step * (power + self.last_power)
+        self.last_time_s, self.last_thrust, self.last_power = time_s, thrust, power
+        self.tip_y_low = min(self.tip_y_low, tip_y)
+        self.tip_y_high = max(self.tip_y_high, tip_y)
+
+    def figures(self, index: int, state: FloatArray, body_length_m: float) -> BeatFigures:
+        duration = self.last_time_s - self.start_time_s
+        x0, y0, psi0 = self.start_pose
+        chord = math.hypot(float(state[0, X]) - x0, float(state[0, Y]) - y0)
+        turn = float(state[0, PSI]) - psi0
+        speed = chord / duration
+        thrust = self.thrust_integral / duration
+        power = self.power_integral / duration
+        excursion = self.tip_y_high - self.tip_y_low
+        frequency = 1.0 / duration
+        radius = chord / (2.0 * math.sin(0.5 * turn)) if turn != 0.0 else math.inf
+        return BeatFigures(
+            beat_index=index,
+            end_time_s=self.last_time_s,
+            duration_s=duration,
+            frequency_hz=frequency,
+            mean_speed_m_s=speed,
+            body_lengths_per_s=speed / body_length_m,
+            tip_excursion_m=excursion,
+            strouhal_number=_ratio(frequency * excursion, speed),
+            mean_thrust_n=thrust,
+            mean_tail_power_w=power,
+            froude_efficiency=_ratio(thrust * speed, power),
+            turning_radius_m=radius,
+            heading_change_rad=turn,
+        )
+
+
+class SwimFollower:
+    """One fish, from rest at the origin, swimming with the carrier's sampled motion."""
+
+    def __init__(
+        self,
+        tail: Tail,
+        fish: FishParameters,
+        max_step_s: float,
+        max_interval_s: float = math.inf,
+    ) -> None:
+        """Follow ``tail`` on ``fish`` (one fish: float parameters) with sub-steps <= max_step_s."""
+        if not (math.isfinite(max_step_s) and max_step_s > 0.0):
+            raise ValueError(f"max_step_s must be finite and positive, got {max_step_s!r}")
+        if not max_interval_s > 0.0:
+            raise ValueError(f"max_interval_s must be positive, got {max_interval_s!r}")
+        self.fish = fish
+        self.max_step_s = max_step_s
+        self.max_interval_s = max_interval_s
+        self.carrier = LinearCarrier()
+        self.model = SwimModel(fish, EngineTailDrive(tail, self.carrier))
+        self._body_length_m = float(fish.body_length_m)
+        #: (1, 6): X, Y, psi in world; u, v, r in the body frame.
+        self.state: FloatArray = np.zeros((1, STATE_SIZE))
+        #: Seconds since the first sample (None before it).
+        self.time_s: float | None = None
+        self.angle_rad = 0.0
+        #: Stamp of the first sample: the fish's time 0.
+        self.first_stamp_ns = 0
+        self._last_stamp_ns = 0
+        self._next_boundary_rad = 0.0
+        self._beat: _BeatAccumulator | None = None
+        self.beats_completed = 0
+        self.sub_steps = 0
+        self.restarts = 0
+        #: Beats completed since the last :meth:`take_beats`.
+        self.finished: list[BeatFigures] = []
+
+    @property
+    def started(self) -> bool:
+        """True once a sample has been followed."""
+        return self.time_s is not None
+
+    def follow(self, stamp_ns: int, angle_rad: float) -> None:
+        """Integrate up to the sample at ``stamp_ns`` (after the previous one) with its angle.
+
+        Raises ValueError for a non-finite angle or a stamp not after the previous sample's:
+        the caller drops those before (the node's input guard).
+        """
+        if not math.isfinite(angle_rad):
+            raise ValueError(f"carrier angle {angle_rad!r} is not finite")
+        if self.time_s is None:
+            self.first_stamp_ns = self._last_stamp_ns = stamp_ns
+            self.time_s = 0.0
+            self.angle_rad = angle_rad
+            self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
+            return
+        if stamp_ns <= self._last_stamp_ns:
+            raise ValueError(f"stamp {stamp_ns} ns is not after the previous {self._last_stamp_ns}")
+        start_time, start_angle = self.time_s, self.angle_rad
+        end_time = (stamp_ns - self.first_stamp_ns) * 1e-9
+        self._last_stamp_ns = stamp_ns
+        duration = end_time - start_time
+        if duration > self.max_interval_s:
+            self._restart(end_time, angle_rad)
+            return
+        speed = (angle_rad - start_angle) / duration
+        self.carrier.set(start_time, start_angle, speed)
+        segment_start = start_time
+        # Beat boundaries crossed in this interval become sub-step boundaries.
+        while speed > 0.0 and angle_rad >= self._next_boundary_rad:
+            crossing = start_time + (self._next_boundary_rad - start_angle) / speed
+            crossing = min(max(crossing, segment_start), end_time)
+            self._integrate(segment_start, crossing)
+            segment_start = crossing
+            self._next_boundary_rad += TWO_PI
+            self._finish_beat()
+            self._start_beat(crossing)
+        self._integrate(segment_start, end_time)
+        self.time_s, self.angle_rad = end_time, angle_rad
+
+    def take_beats(self) -> list[BeatFigures]:
+        """The beats completed since the last call, oldest first."""
+        finished, self.finished = self.finished, []
+        return finished
+
+    def _restart(self, time_s: float, angle_rad: float) -> None:
+        self.restarts += 1
+        self._beat = None
+        self.time_s, self.angle_rad = time_s, angle_rad
+        self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
+
+    def _tail_figures_now(self, time_s: float) -> tuple[float, float, float]:
+        """Thrust F_T,x, tail power and the tip's body-frame y at ``time_s`` for the state."""
+        flow, _, tail = self.model.forces(time_s, self.state)
+        force = flow.force
+        power = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
+        return float(force.x.item()), float(power.item()), float(tail.tip_y.item())
+
+    def _start_beat(self, time_s: float) -> None:
+        self._beat = _BeatAccumulator(time_s, self.state, *self._tail_figures_now(time_s))
+
+    def _finish_beat(self) -> None:
+        beat = self._beat
+        if beat is None:
+            return
+        self.finished.append(beat.figures(self.beats_completed, self.state, self._body_length_m))
+        self.beats_completed += 1
+        self._beat = None
+
+    def _integrate(self, start_s: float, end_s: float) -> None:
+        length = end_s - start_s
+        if length < _MIN_SEGMENT_S:
+            return
+        # A step a rounding error longer than max_step_s (stamps are whole nanoseconds) is one step.
+        steps = max(1, math.ceil(length / self.max_step_s - 1e-6))
+        step = length / steps
+        derivatives = self.model.derivatives
+        beat = self._beat
+        for index in range(steps):
+            time = start_s + index * step
+            self.state = rk4_step(derivatives, time, self.state, step)
+            if beat is not None:
+                end = end_s if index == steps - 1 else time + step
+                beat.add(end, *self._tail_figures_now(end))
+        self.sub_steps += steps

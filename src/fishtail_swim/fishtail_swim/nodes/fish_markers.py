@@ -1,0 +1,154 @@
+"""``fish/markers`` of the simulator: the fish's body, path and tail in ``world``, on a timer.
+
+The node's per-message path only stores the latest (state, carrier angle, stamp) in
+:attr:`FishMarkerPublisher.latest`; everything here happens on the timer tick at
+``markers_rate_hz`` (0 = off): the position of the centre of mass is appended to the path (one
+point a tick, so the path covers ``markers_path_length / markers_rate_hz`` seconds) and, if
+anybody subscribes, one MarkerArray is published:
+
+* ``body``: the hull's outline, an ellipse of the body's length and diameter round C, turned by
+  the yaw (the spheroid cut in the plane of swimming);
+* ``path``: C's recent positions;
+* ``tail``: the ring-gear centre O and the tail tip T at the latest carrier angle, from the
+  kinematics engine, carried from the tail frame (x back, y left) into the body and the world.
+
+The first array after start begins with a DELETEALL, so markers of an earlier run vanish.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import TYPE_CHECKING
+
+import numpy as np
+from geometry_msgs.msg import Point
+from rclpy.node import Node
+from rclpy.timer import Timer
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from fishtail_common.interface import FISH_MARKERS, WORLD_FRAME
+from fishtail_common.parameters import ParameterSpec
+from fishtail_common.ros import qos_profile
+from fishtail_kinematics.engine.mechanisms import Tail
+from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_swim.dynamics.model import PSI, X, Y
+
+if TYPE_CHECKING:
+    from builtin_interfaces.msg import Time
+
+MARKERS_RATE = ParameterSpec(
+    "markers_rate_hz", 10.0, f"{FISH_MARKERS.name} publication rate, 0 = off", "Hz", 0.0, 100.0,
+    read_only=True,
+)  # fmt: skip
+MARKERS_PATH_LENGTH = ParameterSpec(
+    "markers_path_length",
+    3000,
+    "positions of the centre of mass in the marker path, one per marker tick",
+    minimum=0,
+    maximum=100000,
+    read_only=True,
+)
+MARKER_PARAMETERS = (MARKERS_RATE, MARKERS_PATH_LENGTH)
+#: Points of the body's outline.
+OUTLINE_POINTS = 37
+_LINE_WIDTH_M = 0.01
+
+
+def _line_strip(namespace: str, colour: tuple[float, float, float, float]) -> Marker:
+    marker = Marker()
+    marker.header.frame_id = WORLD_FRAME
+    marker.ns = namespace
+    marker.id = 0
+    marker.type = Marker.LINE_STRIP
+    marker.action = Marker.ADD
+    marker.pose.orientation.w = 1.0
+    marker.scale.x = _LINE_WIDTH_M
+    red, green, blue, alpha = colour
+    marker.color = ColorRGBA(r=red, g=green, b=blue, a=alpha)
+    return marker
+
+
+class FishMarkerPublisher:
+    """Publisher, throttle timer and path of ``fish/markers`` for one simulated fish."""
+
+    def __init__(
+        self,
+        node: Node,
+        tail: Tail,
+        body_length_m: float,
+        body_diameter_m: float,
+        tail_origin_offset_m: float,
+        rate_hz: float,
+        path_length: int,
+    ) -> None:
+        """Create the publisher and, unless ``rate_hz`` is 0, the timer."""
+        self.tail = tail
+        self.tail_origin_offset_m = tail_origin_offset_m
+        angles = np.linspace(0.0, 2.0 * math.pi, OUTLINE_POINTS)
+        #: The outline in the body frame, (OUTLINE_POINTS, 2).
+        self.outline = np.column_stack(
+            (0.5 * body_length_m * np.cos(angles), 0.5 * body_diameter_m * np.sin(angles))
+        )
+        self.publisher = node.create_publisher(
+            MarkerArray, FISH_MARKERS.name, qos_profile(FISH_MARKERS)
+        )
+        #: (state (1, 6), carrier angle, header stamp) of the newest sample; set per message.
+        self.latest: tuple[FloatArray, float, Time] | None = None
+        self.path: deque[tuple[float, float]] = deque(maxlen=path_length)
+        self.published = 0
+        self._path_source: FloatArray | None = None
+        self._delete_all = True
+        self._body = _line_strip("body", (0.2, 0.5, 0.9, 1.0))
+        self._path = _line_strip("path", (0.9, 0.9, 0.2, 0.8))
+        self._tail = _line_strip("tail", (0.9, 0.3, 0.2, 1.0))
+        self.timer: Timer | None = None
+        if rate_hz > 0.0:
+            self.timer = node.create_timer(1.0 / rate_hz, self.on_tick)
+
+    def on_tick(self) -> None:
+        """Extend the path from the newest state and publish the markers if anyone listens."""
+        latest = self.latest
+        if latest is None:
+            return
+        state, angle, stamp = latest
+        if state is not self._path_source:
+            self._path_source = state
+            self.path.append((float(state[0, X]), float(state[0, Y])))
+        if self.publisher.get_subscription_count() == 0:
+            return
+        self.publisher.publish(self.build(state, angle, stamp))
+
+    def build(self, state: FloatArray, angle: float, stamp: Time) -> MarkerArray:
+        """The MarkerArray of the fish in ``state`` with its tail at carrier ``angle``."""
+        x, y, psi = float(state[0, X]), float(state[0, Y]), float(state[0, PSI])
+        cos_psi, sin_psi = math.cos(psi), math.sin(psi)
+
+        def world(points: FloatArray) -> list[Point]:
+            world_x = x + cos_psi * points[:, 0] - sin_psi * points[:, 1]
+            world_y = y + sin_psi * points[:, 0] + cos_psi * points[:, 1]
+            return [
+                Point(x=px, y=py) for px, py in zip(world_x.tolist(), world_y.tolist(), strict=True)
+            ]
+
+        tail = self.tail.solve(angle, 0.0)
+        origin = -self.tail_origin_offset_m
+        # Tail frame (x back, y left) to body frame: (x_t, y_t) -> (-l_O - x_t, y_t).
+        tail_points = np.array([[origin, 0.0], [origin - float(tail.tip_x), float(tail.tip_y)]])
+        self._body.points = world(self.outline)
+        self._tail.points = world(tail_points)
+        self._path.points = [Point(x=px, y=py) for px, py in self.path]
+        markers = []
+        if self._delete_all:
+            clear = Marker()
+            clear.header.frame_id = WORLD_FRAME
+            clear.header.stamp = stamp
+            clear.action = Marker.DELETEALL
+            markers.append(clear)
+            self._delete_all = False
+        for marker in (self._body, self._path, self._tail):
+            marker.header.stamp = stamp
+            markers.append(marker)
+        self.published += 1
+        return MarkerArray(markers=markers)

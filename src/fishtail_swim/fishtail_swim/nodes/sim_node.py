@@ -1,0 +1,294 @@
+"""Swimming simulator node: the carrier's samples in, one simulated fish out.
+
+Topics (relative names):
+  sub ``motor/joint_state``  sensor_msgs/JointState (the driver's carrier joint), sensor-data QoS
+  pub ``fish/odom``          nav_msgs/Odometry per accepted sample, stamped like it: pose X, Y and
+                             the yaw psi (a quaternion about z) of the centre of mass in ``world``,
+                             twist u, v (linear x, y) and r (angular z) in ``base_link``;
+                             sensor-data QoS
+  pub ``fish/swimming``      fishtail_msgs/SwimFigures once per beat (one carrier revolution):
+                             reliable, transient local, depth 1 (a late subscriber gets the last)
+  pub ``fish/markers``       visualization_msgs/MarkerArray for RViz (body outline, path, tail) in
+                             ``world``, at ``markers_rate_hz`` (0 = off)
+  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray: STALE without input; WARN when
+                             samples were dropped or the input has gaps or a low rate; else OK,
+                             with the fish's speed, heading and position among the values
+
+The dynamics are :mod:`fishtail_swim.dynamics`, driven through :class:`SwimFollower` (RK4 between
+consecutive samples on the linearly interpolated carrier angle, sub-steps of at most
+``max_step_sec``). Implausible samples are dropped by the kinematics node's rules
+(:mod:`fishtail_kinematics.engine.input_guard`) and counted per reason. Every parameter (the
+geometry as for the kinematics node, e.g. ``config/oscillatory.yaml``; the fish, e.g.
+``config/fish.yaml``) is read-only: the simulation's fish and tail are fixed for its run, and a
+run-time change is refused by ROS.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+
+from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import JointState
+
+from fishtail_common.interface import (
+    BODY_FRAME,
+    CARRIER_JOINT,
+    DIAGNOSTICS,
+    FISH_ODOM,
+    FISH_SWIMMING,
+    MOTOR_JOINT_STATE,
+    WORLD_FRAME,
+    Level,
+    Status,
+)
+from fishtail_common.parameters import ParameterSpec
+from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.stream_timing import StreamTiming
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
+from fishtail_kinematics.engine.input_guard import (
+    GUARD_PARAMETERS,
+    GUARD_REASONS,
+    REASON_TEXT,
+    STALE_TIMEOUT,
+    STAMP_NOT_INCREASING,
+    CarrierGuard,
+    DropCounts,
+    input_status,
+)
+from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_kinematics.engine.parameters import (
+    MECHANISM,
+    geometry_from_parameters,
+    geometry_parameters_in,
+)
+from fishtail_msgs.msg import SwimFigures
+from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
+from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
+from fishtail_swim.follower import BeatFigures, SwimFollower
+from fishtail_swim.nodes.fish_markers import (
+    MARKER_PARAMETERS,
+    MARKERS_PATH_LENGTH,
+    MARKERS_RATE,
+    FishMarkerPublisher,
+)
+
+INPUT_TOPIC = MOTOR_JOINT_STATE.name
+DIAGNOSTICS_PERIOD_S = 1.0
+#: Drop reason of the node itself, besides the guard's.
+NO_CARRIER_JOINT = "no_carrier_joint"
+
+MOTOR_JOINT_NAME = ParameterSpec(
+    "motor_joint_name", CARRIER_JOINT, f"joint of {INPUT_TOPIC} that is the carrier"
+)
+MAX_STEP = ParameterSpec(
+    "max_step_sec",
+    0.001,
+    "longest RK4 sub-step between two carrier samples (the interval is cut into equal steps)",
+    "s",
+    1e-5,
+    0.1,
+)
+
+
+def _read_only(specs: tuple[ParameterSpec, ...]) -> tuple[ParameterSpec, ...]:
+    return tuple(dataclasses.replace(spec, read_only=True) for spec in specs)
+
+
+#: Every parameter of the node, all read-only.
+PARAMETERS: tuple[ParameterSpec, ...] = _read_only(
+    (
+        MECHANISM,
+        *GEOMETRY_PARAMETERS,
+        *FISH_PARAMETERS,
+        MOTOR_JOINT_NAME,
+        MAX_STEP,
+        STALE_TIMEOUT,
+        *GUARD_PARAMETERS,
+        *MARKER_PARAMETERS,
+    )
+)
+
+
+def figures_message(beat: BeatFigures, stamp_ns: int) -> SwimFigures:
+    """The SwimFigures message of one beat, ending at ``stamp_ns`` (ns since the epoch)."""
+    message = SwimFigures()
+    message.header.frame_id = WORLD_FRAME
+    message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+    message.beat_index = beat.beat_index
+    message.beat_frequency_hz = beat.frequency_hz
+    message.mean_speed_m_s = beat.mean_speed_m_s
+    message.body_lengths_per_s = beat.body_lengths_per_s
+    message.tip_excursion_m = beat.tip_excursion_m
+    message.strouhal_number = beat.strouhal_number
+    message.mean_thrust_n = beat.mean_thrust_n
+    message.mean_tail_power_w = beat.mean_tail_power_w
+    message.froude_efficiency = beat.froude_efficiency
+    message.turning_radius_m = beat.turning_radius_m
+    message.heading_change_rad = beat.heading_change_rad
+    return message
+
+
+class SimNode(SuiteNodeBase):
+    """Thin shell around :class:`SwimFollower`: samples in, odometry and figures out."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the tail and the fish (raises on bad values), wire topics."""
+        super().__init__("swim")
+        values = declare(self, PARAMETERS)
+        tail = make_tail(geometry_from_parameters(geometry_parameters_in(values)))
+        fish = FishParameters.from_values(
+            {spec.name: values[spec.name] for spec in FISH_PARAMETERS}
+        )
+        self.stale_timeout_s = float(values[STALE_TIMEOUT.name])
+        self.follower = SwimFollower(
+            tail, fish, float(values[MAX_STEP.name]), max_interval_s=self.stale_timeout_s
+        )
+        self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
+        self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
+        self.guard = CarrierGuard()
+        self.guard.apply_parameters(values)
+        self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT))
+        self._drop_log = {
+            reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
+        }
+        self.timing = StreamTiming()
+        self.received = 0
+        self.last_input_ns: int | None = None
+        self.tail_name = tail.name
+
+        self.odom = Odometry()
+        self.odom.header.frame_id = WORLD_FRAME
+        self.odom.child_frame_id = BODY_FRAME
+        self.odom_publisher = self.create_publisher(
+            Odometry, FISH_ODOM.name, qos_profile(FISH_ODOM)
+        )
+        self.figures_publisher = self.create_publisher(
+            SwimFigures, FISH_SWIMMING.name, qos_profile(FISH_SWIMMING)
+        )
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+        )
+        self.create_subscription(
+            JointState, INPUT_TOPIC, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
+        )
+        self.markers = FishMarkerPublisher(
+            self,
+            tail,
+            float(fish.body_length_m),
+            float(fish.body_diameter_m),
+            float(fish.tail_origin_offset_m),
+            float(values[MARKERS_RATE.name]),
+            int(values[MARKERS_PATH_LENGTH.name]),
+        )
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
+        self.get_logger().info(
+            f"swimming simulator up: {tail.name} tail, body {float(fish.body_length_m):g} m, "
+            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms"
+        )
+
+    def _joint_index(self, names: list[str]) -> int | None:
+        key = tuple(names)
+        cached_names, index = self._joint_index_cache
+        if key != cached_names:
+            index = key.index(self.motor_joint_name) if self.motor_joint_name in key else None
+            self._joint_index_cache = (key, index)
+        return index
+
+    def _reject(self, reason: str, text: str) -> None:
+        self.drops.count(reason)
+        self.get_logger().warning(text, throttle_duration_sec=2.0)
+
+    def _on_motor_state(self, message: JointState) -> None:
+        self.received += 1
+        now_ns = self.get_clock().now().nanoseconds
+        self.last_input_ns = now_ns
+        index = self._joint_index(message.name)
+        if index is None or index >= len(message.position):
+            self._reject(
+                NO_CARRIER_JOINT,
+                f"{INPUT_TOPIC} has no position for joint {self.motor_joint_name!r}",
+            )
+            return
+        angle = float(message.position[index])
+        velocity = float(message.velocity[index]) if index < len(message.velocity) else 0.0
+        stamp = message.header.stamp
+        stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+        reason = self.guard.check(stamp_ns, angle, velocity, now_ns)
+        if reason is not None:
+            self._reject(reason, self._drop_log[reason])
+            return
+        self.timing.observe(stamp_ns * 1e-9)
+        follower = self.follower
+        try:
+            follower.follow(stamp_ns, angle)
+        except ValueError:
+            # The guard follows a stream afresh after its timeout, whatever the stamp; the fish's
+            # time cannot go back.
+            self._reject(STAMP_NOT_INCREASING, self._drop_log[STAMP_NOT_INCREASING])
+            return
+        self.publish_odometry(stamp)
+        self.markers.latest = (follower.state, angle, stamp)
+        if follower.finished:
+            for beat in follower.take_beats():
+                end_ns = follower.first_stamp_ns + round(beat.end_time_s * 1e9)
+                self.figures_publisher.publish(figures_message(beat, end_ns))
+
+    def publish_odometry(self, stamp: object) -> None:
+        """Fill and publish fish/odom from the follower's state."""
+        row = self.follower.state[0]
+        odom = self.odom
+        odom.header.stamp = stamp
+        pose = odom.pose.pose
+        pose.position.x = float(row[X])
+        pose.position.y = float(row[Y])
+        half_yaw = 0.5 * float(row[PSI])
+        pose.orientation.z = math.sin(half_yaw)
+        pose.orientation.w = math.cos(half_yaw)
+        twist = odom.twist.twist
+        twist.linear.x = float(row[SURGE])
+        twist.linear.y = float(row[SWAY])
+        twist.angular.z = float(row[YAW_RATE])
+        self.odom_publisher.publish(odom)
+
+    def _on_diagnostics(self) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        level, text, input_values = input_status(
+            INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
+        )
+        row = self.follower.state[0]
+        speed = math.hypot(float(row[SURGE]), float(row[SWAY]))
+        heading_deg = math.degrees(float(row[PSI]))
+        if (
+            self.last_input_ns is None
+            or (now_ns - self.last_input_ns) * 1e-9 > self.stale_timeout_s
+        ):
+            level, text = Level.STALE, f"no {INPUT_TOPIC} received recently"
+        elif level == Level.OK:
+            text = f"fish at {speed:.3f} m/s, heading {heading_deg:.2f} deg; {text}"
+        values = {
+            "speed_m_s": f"{speed:.6g}",
+            "heading_rad": f"{float(row[PSI]):.6g}",
+            "x_m": f"{float(row[X]):.6g}",
+            "y_m": f"{float(row[Y]):.6g}",
+            "beats": str(self.follower.beats_completed),
+            "sub_steps": str(self.follower.sub_steps),
+            "restarts": str(self.follower.restarts),
+            "received": str(self.received),
+            **input_values,
+        }
+        self.diagnostics_publisher.publish(
+            diagnostic_array(self, Status("swim", level, text, values))
+        )
+
+
+def main() -> int:
+    """Entry point of ``ros2 run fishtail_swim sim``."""
+    return run_node(SimNode, "swim", (FishtailKinematicsError,))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
