@@ -80,7 +80,7 @@ def test_bad_input_is_one_line_and_exit_2(capsys, bad_files, arguments, words):
     assert out == ""
     lines = err.splitlines()
     assert len(lines) == 1, err
-    assert lines[0].startswith("fishtail-swim") and ": error: " in lines[0]
+    assert lines[0].startswith("fishtail-swim: error: ")
     assert words in lines[0]
     assert not (bad_files / "run.csv").exists()
 

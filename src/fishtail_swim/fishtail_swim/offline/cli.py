@@ -18,11 +18,12 @@ import numpy as np
 
 from fishtail_common.parameters import ParameterValueError
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
-from fishtail_kinematics.offline.command_line import OneLineErrorParser
 from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FloatArray
 from fishtail_swim.offline import run_output
 from fishtail_swim.offline.inputs import (
+    PROGRAM,
+    SwimParser,
     UsageError,
     number,
     positive_number,
@@ -34,7 +35,6 @@ from fishtail_swim.offline.steady_table import check_rows, checked_indices, stea
 from fishtail_swim.offline.tables import Column, write_table
 from fishtail_swim.offline.time_run import run_figures, run_from_rest
 
-PROGRAM = "fishtail-swim"
 DEFAULT_SPEEDS = "2,4,8,12,16"
 #: Most carrier speeds one steady table computes (one batch).
 MAX_SPEEDS = 100_000
@@ -87,7 +87,7 @@ def _steps_per_beat(text: str) -> int:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests)."""
     swimmer = swimmer_arguments()
-    parser = OneLineErrorParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
+    parser = SwimParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     steady = commands.add_parser(
         "steady", parents=[swimmer],

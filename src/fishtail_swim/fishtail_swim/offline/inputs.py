@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import NamedTuple
+from typing import NamedTuple, NoReturn
 
 from fishtail_common.config_files import default_parameter_file
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
@@ -26,10 +26,19 @@ from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
 from fishtail_swim.fish_config import read_fish_values
 
+PROGRAM = "fishtail-swim"
 #: The fish's parameter file, under config/ of the workspace or of the install.
 FISH_FILE = "fish"
 #: The tail's parameter file when neither --config nor --mechanism says otherwise.
 DEFAULT_MECHANISM = "oscillatory"
+
+
+class SwimParser(OneLineErrorParser):
+    """Usage errors of every command as ``fishtail-swim: error: ...``, with where the help is."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print the one line and exit with status 2."""
+        self.exit(2, f"{PROGRAM}: error: {message} (see {self.prog} --help)\n")
 
 
 class UsageError(Exception):
@@ -62,9 +71,9 @@ def positive_number(text: str) -> float:
     return value
 
 
-def swimmer_arguments() -> OneLineErrorParser:
+def swimmer_arguments() -> SwimParser:
     """The parent parser of the tail's and the fish's files and flags."""
-    parent = OneLineErrorParser(add_help=False)
+    parent = SwimParser(add_help=False)
     tail = parent.add_argument_group("tail geometry (SI units; flags override --config)")
     tail.add_argument(
         "--config", type=Path,
