@@ -37,7 +37,7 @@ from fishtail_swim.offline.time_run import run_figures, run_from_rest
 
 DEFAULT_SPEEDS = "2,4,8,12,16"
 #: Most carrier speeds one steady table computes (one batch).
-MAX_SPEEDS = 100_000
+MAX_SPEEDS = 10_000
 
 
 def _carrier_speed(text: str) -> float:

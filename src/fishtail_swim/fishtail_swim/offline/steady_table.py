@@ -29,6 +29,8 @@ BEAT_SAMPLES = 1024
 #: 100-fold every 20 beats; the figures are over the last two).
 CHECK_STEPS_PER_BEAT = 32
 CHECK_BEATS = 50
+# Carrier speeds per batch: bounds the (BEAT_SAMPLES, speeds) arrays to a few MB each.
+_SPEEDS_PER_BATCH = 1000
 
 
 class SteadyRows(NamedTuple):
@@ -57,8 +59,18 @@ class CheckRows(NamedTuple):
 
 
 def steady_rows(swimmer: Swimmer, carrier_speed_rad_s: FloatArray) -> SteadyRows:
-    """The balance at every carrier speed, in one batch."""
-    speeds = np.asarray(carrier_speed_rad_s, dtype=float)
+    """The balance at every carrier speed, in batches of up to a thousand speeds."""
+    speeds = np.atleast_1d(np.asarray(carrier_speed_rad_s, dtype=float))
+    progress = Progress("steady", speeds.size)
+    batches = []
+    for start in range(0, speeds.size, _SPEEDS_PER_BATCH):
+        batches.append(_steady_batch(swimmer, speeds[start : start + _SPEEDS_PER_BATCH]))
+        progress.update(start + _SPEEDS_PER_BATCH)
+    progress.finish()
+    return SteadyRows(*(np.concatenate(column) for column in zip(*batches, strict=True)))
+
+
+def _steady_batch(swimmer: Swimmer, speeds: FloatArray) -> SteadyRows:
     fish = swimmer.fish
     drive = EngineTailDrive(swimmer.tail, constant_carrier_speed(speeds))
     period = 2.0 * np.pi / speeds
