@@ -17,8 +17,9 @@ import yaml
 from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
+from visualization_msgs.msg import MarkerArray
 
-from fishtail_common.interface import FISH_ODOM, FISH_SWIMMING, Level
+from fishtail_common.interface import FISH_MARKERS, FISH_ODOM, FISH_SWIMMING, Level
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
 from fishtail_kinematics.offline.parameter_files import load_parameter_file
@@ -81,6 +82,7 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
         QoSProfile(depth=50, durability=DurabilityPolicy.TRANSIENT_LOCAL),
     )
     diagnostics = ros.record_diagnostics()
+    markers = ros.record(MarkerArray, FISH_MARKERS.name, 10)
     # No watchdog: the motor keeps turning while the test computes its replay without spinning.
     start_node("driver", params={"publish_rate_hz": 200.0, "cmd_timeout_sec": 0.0})
     start_node(SIM_MODULE, name="swim", params_file=swim_parameters)
@@ -146,6 +148,13 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     assert newest.body_lengths_per_s == pytest.approx(newest.mean_speed_m_s / 0.5)
     assert newest.turning_radius_m < 0.0  # turning right, as the library's Cardan tail does
     assert 0.2 < newest.strouhal_number < 2.0 and 0.0 < newest.froude_efficiency < 1.0
+
+    # RViz markers: body outline, path and tail, in the world frame.
+    ros.wait_for_messages(markers, 2, STREAM_TIMEOUT_S, FISH_MARKERS.name)
+    drawn = {marker.ns: marker for marker in markers.messages[-1].markers}
+    assert set(drawn) == {"body", "path", "tail"}
+    assert all(marker.header.frame_id == "world" for marker in drawn.values())
+    assert len(drawn["body"].points) > 10 and len(drawn["tail"].points) == 2
 
     def swim_ok() -> bool:
         statuses = ros.statuses(diagnostics, "swim")
