@@ -10,6 +10,10 @@ library's cycle-average steady speed, and the heading against the straight line 
 from __future__ import annotations
 
 import math
+import os
+import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -38,8 +42,11 @@ SPEED_RAD_S = 16.0
 BEATS = 10
 MAX_STEP_S = 0.0025
 STREAM_TIMEOUT_S = 40.0
+RUN_TIMEOUT_S = 60.0
 #: Replay against node: the same model and integrator on nearly the same carrier motion.
 REPLAY_RELATIVE = 1e-3
+#: Per-beat heading change against the replay's (about -2.6e-3 rad a beat by beat 10).
+HEADING_TOLERANCE_RAD = 2e-4
 #: The library's steady speed is reached only asymptotically; the last beat is within this of it.
 STEADY_RELATIVE = 0.3
 
@@ -120,9 +127,10 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     xs = [o.pose.pose.position.x for o in odometry]
     assert xs[0] == pytest.approx(0.0, abs=1e-6)
     assert pose.position.x > 0.5 and twist.linear.x > 0.0
-    # Nearly straight: the Cardan tail's mean fin angle turns it right on a circle of some 70 m,
-    # so over a few metres the heading changes by hundredths of a radian, as the replay's.
-    assert -0.1 < published_psi < 0.0
+    # Nearly straight. The yaw swings by a few degrees within each beat and its offset depends on
+    # how the motor started (the heading is neutrally stable), so the instantaneous heading is
+    # held against the replay above and only bounded here.
+    assert abs(published_psi) < 0.1
 
     # Per-beat figures: consecutive, finite, equal to the replay's and near the steady speed.
     replayed = {beat.beat_index: beat for beat in follower.take_beats()}
@@ -139,6 +147,9 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
             assert message.mean_thrust_n == pytest.approx(
                 expected.mean_thrust_n, rel=REPLAY_RELATIVE
             )
+            assert message.heading_change_rad == pytest.approx(
+                expected.heading_change_rad, abs=HEADING_TOLERANCE_RAD
+            )
     newest = received[-1]
     period = 2.0 * math.pi / SPEED_RAD_S
     drive = EngineTailDrive(tail, constant_carrier_speed(np.array([SPEED_RAD_S])))
@@ -146,7 +157,8 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     assert newest.beat_frequency_hz == pytest.approx(1.0 / period, rel=0.02)
     assert newest.mean_speed_m_s == pytest.approx(steady, rel=STEADY_RELATIVE)
     assert newest.body_lengths_per_s == pytest.approx(newest.mean_speed_m_s / 0.5)
-    assert newest.turning_radius_m < 0.0  # turning right, as the library's Cardan tail does
+    # Turning right on a wide circle once the start-up has passed, as the library's Cardan tail.
+    assert newest.heading_change_rad < 0.0 and -1000.0 < newest.turning_radius_m < 0.0
     assert 0.2 < newest.strouhal_number < 2.0 and 0.0 < newest.froude_efficiency < 1.0
 
     # RViz markers: body outline, path and tail, in the world frame.
@@ -176,3 +188,30 @@ def test_negative_body_mass_exits_with_status_2(start_node, params_file):
     assert len(lines) == 1 and lines[0].startswith("swim: error: "), lines
     assert "body_mass_kg" in lines[0]
     assert process.stdout().strip() == ""
+
+
+def test_fishtail_run_swim_shows_the_fish_swimming(ros_domain):
+    """``fishtail-run --swim`` starts the simulator too; its last line has the fish moving."""
+    completed = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fishtail_bringup.run",
+            "--swim",
+            "--speed",
+            "12",
+            "--duration",
+            "6",
+        ],
+        env=os.environ.copy(),
+        capture_output=True,
+        text=True,
+        timeout=RUN_TIMEOUT_S,
+    )
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 0, output
+    assert "swimming simulator up" in output, output
+    last = next(line for line in output.splitlines() if line.startswith("fishtail-run: last state"))
+    found = re.search(r"fish (\S+) m/s heading +(\S+)°", last)
+    assert found is not None, last
+    assert float(found.group(1)) > 0.0, last

@@ -54,6 +54,17 @@ def status_line(
     )
 
 
+def fish_text(speed_m_s: float | None, heading_rad: float | None) -> str:
+    """The simulated fish's part of the status line (``fishtail-run --swim``).
+
+    >>> fish_text(0.1834, -0.0123)
+    'fish 0.183 m/s heading  -0.70°'
+    """
+    if speed_m_s is None or heading_rad is None:
+        return "fish --"
+    return f"fish {speed_m_s:.3f} m/s heading {math.degrees(heading_rad):+6.2f}°"
+
+
 def verdict_text(beat_index: int | None, verdict: int | None, message: str) -> str:
     """The symmetry part of the status line."""
     if beat_index is None or verdict is None:

@@ -4,7 +4,9 @@ For machines without ``ros2 launch`` (ROS 2 from PyPI wheels): the driver, kinem
 nodes run as separate processes, each in its own process group (so one signal reaches the whole
 node), with their output prefixed and forwarded here. This process also hosts a small console node
 that publishes the carrier speed (``motor/cmd_speed``, 10 Hz, so the driver's watchdog stays
-quiet) and prints the carrier angle, theta3, the tip and the latest symmetry verdict.
+quiet) and prints the carrier angle, theta3, the tip and the latest symmetry verdict. ``--swim``
+adds the swimming simulator (fishtail_swim's ``sim``, the fish from ``config/fish.yaml``) and the
+fish's speed and heading from ``fish/odom`` to that line.
 
 Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
 kills any that hang. A node that dies early ends the run with exit status 1.
@@ -22,12 +24,14 @@ import threading
 import time
 from pathlib import Path
 
-from fishtail_bringup.console import level_name, status_line, verdict_text
+from fishtail_bringup.console import fish_text, level_name, status_line, verdict_text
 from fishtail_common.config_files import default_parameter_file
 from fishtail_common.interface import (
     DIAGNOSTICS,
+    FISH_ODOM,
     MOTOR_CMD_SPEED,
     SUITE_NODES,
+    SWIM_NODE,
     TAIL_STATE,
     TAIL_SYMMETRY,
     SuiteNode,
@@ -80,6 +84,12 @@ def build_parser() -> argparse.ArgumentParser:
         + "); e.g. driver on the fish's computer, kinematics,monitor on the shore",
     )
     parser.add_argument(
+        "--swim",
+        action="store_true",
+        help="also start the swimming simulator (fishtail_swim, fish from config/fish.yaml) and "
+        "show the fish's speed and heading",
+    )
+    parser.add_argument(
         "--no-command",
         action="store_true",
         help="do not publish motor/cmd_speed (another computer commands the motor)",
@@ -103,9 +113,11 @@ class Supervisor:
         namespace: str,
         driver_params: list[str],
         nodes: tuple[SuiteNode, ...] = SUITE_NODES,
+        fish_config: Path | None = None,
     ) -> None:
-        """Remember how to start the nodes."""
+        """Remember how to start the nodes (``fish_config`` for the simulator's fish)."""
         self.nodes = nodes
+        self.fish_config = fish_config
         self.config = config
         self.namespace = namespace
         self.driver_params = driver_params
@@ -117,6 +129,8 @@ class Supervisor:
         """The command line of one node."""
         command = [sys.executable, "-m", node.module, "--ros-args"]
         command += ["--params-file", str(self.config)]
+        if node == SWIM_NODE and self.fish_config is not None:
+            command += ["--params-file", str(self.fish_config)]
         if self.namespace:
             command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
         if node.package == "fishtail_driver":
@@ -178,8 +192,11 @@ class Supervisor:
 class Console:
     """The in-process node: commands the speed, keeps the latest values for the status line."""
 
-    def __init__(self, speed_rad_s: float | None, namespace: str, say) -> None:
-        """Create the node with its publisher and subscriptions; ``say`` prints a line."""
+    def __init__(self, speed_rad_s: float | None, namespace: str, say, swim: bool = False) -> None:
+        """Create the node with its publisher and subscriptions; ``say`` prints a line.
+
+        ``swim``: also follow the simulated fish's odometry for the status line.
+        """
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from std_msgs.msg import Float64
@@ -194,6 +211,8 @@ class Console:
         self.say = say
         self.state = None
         self.report = None
+        self.fish = None
+        self.swim = swim
         self.diagnostics: dict[str, tuple[int, str]] = {}
         # Only a console that commands the motor publishes the command topic: the computer that
         # does is the one whose loss the driver's watchdog answers.
@@ -210,12 +229,21 @@ class Console:
         )
         for message_type, topic, callback in subscriptions:
             self.node.create_subscription(message_type, topic.name, callback, qos_profile(topic))
+        if swim:
+            from nav_msgs.msg import Odometry
+
+            self.node.create_subscription(
+                Odometry, FISH_ODOM.name, self._on_fish, qos_profile(FISH_ODOM)
+            )
 
     def _on_state(self, message) -> None:
         self.state = message
 
     def _on_report(self, message) -> None:
         self.report = message
+
+    def _on_fish(self, message) -> None:
+        self.fish = message
 
     def _on_diagnostics(self, message) -> None:
         # Shown when a status changes level (and the first time, unless it is OK), so that a WARN
@@ -250,7 +278,15 @@ class Console:
             None if state is None else state.theta3,
             None if state is None else (state.tip.x, state.tip.y),
             verdict,
-        )
+        ) + (" | " + self._fish_part() if self.swim else "")
+
+    def _fish_part(self) -> str:
+        fish = self.fish
+        if fish is None:
+            return fish_text(None, None)
+        twist, orientation = fish.twist.twist.linear, fish.pose.pose.orientation
+        heading = 2.0 * math.atan2(orientation.z, orientation.w)
+        return fish_text(math.hypot(twist.x, twist.y), heading)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -271,18 +307,27 @@ def main(argv: list[str] | None = None) -> int:
 
     stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    supervisor = Supervisor(config, arguments.namespace, arguments.driver_param, arguments.nodes)
+    nodes = arguments.nodes
+    fish_config = None
+    if arguments.swim:
+        nodes = (*nodes, SWIM_NODE)
+        try:
+            fish_config = default_parameter_file("fish")
+        except LookupError as error:
+            print(f"fishtail-run: error: {error}", file=sys.stderr)
+            return 2
+    supervisor = Supervisor(config, arguments.namespace, arguments.driver_param, nodes, fish_config)
     speed = None if arguments.no_command else arguments.speed
     interactive = sys.stdout.isatty()
     if interactive:
         supervisor.clear_line = "\r\033[K"
     supervisor.say(
-        f"fishtail-run: {', '.join(node.name for node in arguments.nodes)} with {config}, "
+        f"fishtail-run: {', '.join(node.name for node in nodes)} with {config}, "
         + ("motor commanded elsewhere" if speed is None else f"at {speed:g} rad/s")
         + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
     )
     supervisor.start()
-    console = Console(speed, arguments.namespace, supervisor.say)
+    console = Console(speed, arguments.namespace, supervisor.say, arguments.swim)
     executor = rclpy.executors.SingleThreadedExecutor()
     executor.add_node(console.node)
     started = time.monotonic()

@@ -151,3 +151,5 @@ SUITE_NODES: tuple[SuiteNode, ...] = (
         "monitor", "fishtail_kinematics", "monitor", "fishtail_kinematics.nodes.monitor_node"
     ),
 )
+#: The swimming simulator: not in the default suite (``fishtail-run --swim`` adds it).
+SWIM_NODE = SuiteNode("swim", "fishtail_swim", "sim", "fishtail_swim.nodes.sim_node")
