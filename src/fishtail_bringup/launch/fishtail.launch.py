@@ -3,6 +3,7 @@
     ros2 launch fishtail_bringup fishtail.launch.py
     ros2 launch fishtail_bringup fishtail.launch.py mechanism:=undulatory namespace:=fish1
     ros2 launch fishtail_bringup fishtail.launch.py params_file:=/path/to/my_tail.yaml
+    ros2 launch fishtail_bringup fishtail.launch.py swim:=true   # and the swimming simulator
 
 The launch file does not command the motor: publish the carrier speed yourself, e.g.
     ros2 topic pub -r 10 motor/cmd_speed std_msgs/msg/Float64 "{data: 4.0}"
@@ -12,15 +13,19 @@ The launch file does not command the motor: publish the carrier speed yourself, 
 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from fishtail_common.interface import SUITE_NODES
+from fishtail_common.interface import SUITE_NODES, SWIM_NODE
 
 
 def generate_launch_description():
-    """Three nodes in one namespace, geometry from the params file of the chosen mechanism."""
+    """Three nodes in one namespace, geometry from the params file of the chosen mechanism.
+
+    ``swim:=true`` adds the swimming simulator: the same geometry, the fish of ``fish_params_file``.
+    """
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
     namespace = LaunchConfiguration("namespace")
@@ -44,6 +49,18 @@ def generate_launch_description():
         )
         for node in SUITE_NODES
     ]
+    simulator = Node(
+        package=SWIM_NODE.package,
+        executable=SWIM_NODE.executable,
+        name=SWIM_NODE.name,
+        namespace=namespace,
+        parameters=[params_file, LaunchConfiguration("fish_params_file")],
+        output="screen",
+        condition=IfCondition(LaunchConfiguration("swim")),
+    )
+    fish_params = PathJoinSubstitution(
+        [FindPackageShare("fishtail_bringup"), "config", "fish.yaml"]
+    )
     return LaunchDescription(
         [
             DeclareLaunchArgument(
@@ -56,6 +73,17 @@ def generate_launch_description():
             ),
             DeclareLaunchArgument("namespace", default_value="", description="namespace"),
             DeclareLaunchArgument("backend", default_value="sim", description="sim or serial"),
+            DeclareLaunchArgument(
+                "swim",
+                default_value="false",
+                description="true: also start the swimming simulator (fishtail_swim sim)",
+            ),
+            DeclareLaunchArgument(
+                "fish_params_file",
+                default_value=fish_params,
+                description="ROS 2 parameter file with the simulated fish (config/fish.yaml)",
+            ),
             *nodes,
+            simulator,
         ]
     )

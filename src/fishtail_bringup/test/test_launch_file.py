@@ -51,11 +51,15 @@ def description():
 
 def test_declares_the_arguments(description):
     names = [argument.name for argument in description.get_launch_arguments()]
-    assert names == ["mechanism", "params_file", "namespace", "backend"]
+    assert names == ["mechanism", "params_file", "namespace", "backend", "swim", "fish_params_file"]
 
 
 def test_launches_the_three_nodes_of_the_packages(description):
-    nodes = [e for e in description.entities if isinstance(e, launch_ros_actions.Node)]
+    nodes = [
+        e
+        for e in description.entities
+        if isinstance(e, launch_ros_actions.Node) and e.condition is None
+    ]
     launched = {(node.node_package, node.node_executable) for node in nodes}
     assert launched == {
         ("fishtail_driver", "driver"),
@@ -80,3 +84,24 @@ def test_default_params_file_resolves_to_the_installed_config(description, mecha
     assert path.parent.name == "config"
     assert path.is_file(), f"{path} is not installed (colcon build installs config/)"
     assert path.read_text() == (SRC.parent / "config" / f"{mechanism}.yaml").read_text()
+
+
+@pytest.mark.parametrize(("swim", "launched"), [("false", False), ("true", True)])
+def test_swim_adds_the_simulator_with_the_installed_fish(description, swim, launched):
+    context = launch.LaunchContext()
+    context.launch_configurations["swim"] = swim
+    (simulator,) = [
+        e
+        for e in description.entities
+        if isinstance(e, launch_ros_actions.Node) and e.condition is not None
+    ]
+    assert (simulator.node_package, simulator.node_executable) == ("fishtail_swim", "sim")
+    assert "sim" in console_scripts("fishtail_swim")
+    assert simulator.condition.evaluate(context) is launched
+    (fish,) = [
+        e
+        for e in description.entities
+        if isinstance(e, DeclareLaunchArgument) and e.name == "fish_params_file"
+    ]
+    path = Path(perform_substitutions(context, fish.default_value))
+    assert path.is_file() and path.read_text() == (SRC.parent / "config" / "fish.yaml").read_text()
