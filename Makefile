@@ -11,11 +11,11 @@ WITH_ENV := source $(ROOT)/tools/env.sh &&
 
 CONFIG ?= config/oscillatory.yaml
 # What `make run` runs (inside the workspace environment): the geometry's design summary, then the
-# node suite on the simulated motor with a live console until Ctrl-C.
+# node suite on the simulated motor, with the swimming simulator, and a live console until Ctrl-C.
 # `make run RUN_ARGS="--duration 10 --speed 6"`: options of fishtail-run (see its --help).
 RUN_ARGS ?=
 RUN_CMD ?= fishtail-kinematics design --config $(CONFIG) && \
-  fishtail-run --config $(CONFIG) $(RUN_ARGS)
+  fishtail-run --swim --config $(CONFIG) $(RUN_ARGS)
 
 # Test locations: every package's test/ plus the integration tests in test/. If none exists,
 # pytest is pointed at test/ and fails (exit 4), as it does with exit 5 when it collects nothing.
