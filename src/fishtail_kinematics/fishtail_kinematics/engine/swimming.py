@@ -57,7 +57,12 @@ FRESH_WATER_DENSITY_KG_M3 = 1000.0
 #: What the monitor node declares and the analysis accepts (as flags and in a parameter file).
 SWIMMING_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
-        "forward_speed_m_s", 0.3, "forward speed U assumed for St and thrust", "m/s", 1e-3, 20.0
+        "forward_speed_m_s",
+        0.3,
+        "forward speed U for St and thrust, used when no simulated speed is available",
+        "m/s",
+        1e-3,
+        20.0,
     ),
     ParameterSpec("fin_span_m", 0.1, "fin span s at the trailing edge (the tip)", "m", 1e-3, 5.0),
     ParameterSpec(
@@ -70,7 +75,8 @@ SWIMMING_PARAMETERS: tuple[ParameterSpec, ...] = (
 class SwimmingParameters:
     """What the tail's motion does not tell: forward speed U, fin span s, water density rho.
 
-    U is given, not computed (no drag model here); s is the span (depth) of the fin at the
+    U is given, not computed (no drag model here; the monitor takes the swimming simulator's
+    speed when it has one, :func:`choose_forward_speed`); s is the span (depth) of the fin at the
     trailing edge. SI units; every value must be finite and positive.
     """
 
@@ -101,6 +107,30 @@ class SwimmingParameters:
     def added_mass_per_length_kg_m(self) -> float:
         """Lighthill's m = (pi/4) rho s^2: added mass per unit length of the trailing edge."""
         return 0.25 * math.pi * self.water_density_kg_m3 * self.fin_span_m**2
+
+
+#: Where the forward speed U of the monitor's figures came from (its ``forward_speed_source``).
+SPEED_SOURCE_SIMULATED = "simulated"
+SPEED_SOURCE_PARAMETER = "parameter"
+
+
+def choose_forward_speed(
+    parameter_m_s: float, simulated_m_s: float, simulated_age_s: float, max_age_s: float
+) -> tuple[float, str]:
+    """U for a beat's figures and its source: the simulated speed if usable, else the parameter.
+
+    The simulated speed (the swimming simulator's mean speed over its latest beat) is usable when
+    it is finite and > 0 (St and the thrust need a fish that moves) and at most ``max_age_s`` old.
+    Without one, pass ``math.nan`` as the speed or ``math.inf`` as its age.
+
+    >>> choose_forward_speed(0.3, 0.52, 0.4, 1.0)
+    (0.52, 'simulated')
+    >>> choose_forward_speed(0.3, 0.52, 1.5, 1.0)
+    (0.3, 'parameter')
+    """
+    if math.isfinite(simulated_m_s) and simulated_m_s > 0.0 and simulated_age_s <= max_age_s:
+        return simulated_m_s, SPEED_SOURCE_SIMULATED
+    return parameter_m_s, SPEED_SOURCE_PARAMETER
 
 
 @dataclasses.dataclass(frozen=True)

@@ -4,6 +4,9 @@ Topics (relative names):
   sub ``tail/state``       fishtail_msgs/TailState (theta3, the tip's lateral position and
                            velocity, theta5 for mechanism 2, the stamp), sensor-data QoS
   sub ``motor/cmd_speed``  std_msgs/Float64, to know whether beats are expected
+  sub ``fish/swimming``    fishtail_msgs/SwimFigures from the swimming simulator, if it runs
+                           (transient local): its mean_speed_m_s is the forward speed U of the
+                           swimming figures while it is fresh
   pub ``tail/symmetry``    fishtail_msgs/SymmetryReport, one per completed beat (reliable),
                            framed like the tail/state it was computed from; NOT_JUDGED for a
                            beat with a gap in tail/state or undefined figures (never NaN)
@@ -12,8 +15,9 @@ Topics (relative names):
                            beat against the tolerances, STALE when tail/state stops, ERROR when
                            the motor is commanded but no beat completes; also the swimming
                            figures of the latest beat (tip excursion, Strouhal number, Lighthill
-                           mean thrust) for the parameters forward_speed_m_s, fin_span_m and
-                           water_density_kg_m3 (docs/swimming.md).
+                           mean thrust) for the parameters fin_span_m and water_density_kg_m3
+                           and the simulated speed, or the parameter forward_speed_m_s without
+                           one; forward_speed_source says which (docs/swimming.md).
                            ``tail/state input``: WARN when samples were dropped (counts per
                            reason) or tail/state has gaps or a low rate, as the kinematics node
                            reports its own input
@@ -26,6 +30,7 @@ checked by :mod:`fishtail_kinematics.engine.input_guard` and
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from typing import Any
@@ -37,6 +42,7 @@ from std_msgs.msg import Float64
 
 from fishtail_common.interface import (
     DIAGNOSTICS,
+    FISH_SWIMMING,
     MECHANISM_CODES,
     MOTOR_CMD_SPEED,
     TAIL_STATE,
@@ -62,6 +68,7 @@ from fishtail_kinematics.engine.swimming import (
     SwimmingParameters,
     TipKinematics,
     TipSampleBuffer,
+    choose_forward_speed,
     figures_from_kinematics,
 )
 from fishtail_kinematics.engine.symmetry import (
@@ -75,7 +82,7 @@ from fishtail_kinematics.engine.symmetry import (
     Verdict,
     judge,
 )
-from fishtail_msgs.msg import SymmetryReport, TailState
+from fishtail_msgs.msg import SwimFigures, SymmetryReport, TailState
 
 # Speeds below this are "not commanded" (a beat would take longer than ~2 minutes).
 _MIN_COMMANDED_SPEED_RAD_S = 0.05
@@ -141,6 +148,13 @@ class MonitorNode(SuiteNodeBase):
         self.commanded_speed = 0.0
         self.last_command_ns: int | None = None
         self.report = SymmetryReport()
+        # The simulator's latest speed and since when it holds (node clock); the speed, its age
+        # and the age allowed when the latest beat completed, for choose_forward_speed.
+        self.simulated_speed_m_s = math.nan
+        self.simulated_speed_since_ns: int | None = None
+        self.beat_simulated_speed_m_s = math.nan
+        self.beat_simulated_speed_age_s = math.inf
+        self.beat_simulated_speed_max_age_s = 0.0
 
         # Transient local: a subscriber that joins late still gets the latest verdict.
         self.report_publisher = self.create_publisher(
@@ -152,6 +166,9 @@ class MonitorNode(SuiteNodeBase):
         self.create_subscription(TailState, INPUT_TOPIC, self._on_state, qos_profile(TAIL_STATE))
         self.create_subscription(
             Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
+        )
+        self.create_subscription(
+            SwimFigures, FISH_SWIMMING.name, self._on_swimming, qos_profile(FISH_SWIMMING)
         )
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -195,6 +212,14 @@ class MonitorNode(SuiteNodeBase):
         self.last_command_ns = now_ns
         if not was_commanded:
             self.last_progress_ns = now_ns
+
+    def _on_swimming(self, message: SwimFigures) -> None:
+        now_ns = self.get_clock().now().nanoseconds
+        stamp = message.header.stamp
+        self.simulated_speed_m_s = message.mean_speed_m_s
+        # The older of stamp and arrival: a latched message from a simulator that stopped long
+        # ago arrives now but is stamped then; a stamp ahead of this clock must not keep it fresh.
+        self.simulated_speed_since_ns = min(now_ns, stamp.sec * 1_000_000_000 + stamp.nanosec)
 
     def _commanded(self, now_ns: int) -> bool:
         # A command older than the stale timeout no longer counts: the driver's watchdog has
@@ -254,7 +279,18 @@ class MonitorNode(SuiteNodeBase):
         # The swimming figures are over time, so a carrier angle that did not advance leaves them
         # defined; over a hole in the data they would be as wrong as the symmetry.
         self.last_tip_kinematics = None if beat.gap_s > 0.0 else kinematics
-        self.last_progress_ns = self.get_clock().now().nanoseconds
+        now_ns = self.get_clock().now().nanoseconds
+        self.last_progress_ns = now_ns
+        # The simulator publishes once per beat: a speed older than two beats (or the stale
+        # timeout, for fast beats) no longer describes this one.
+        since_ns = self.simulated_speed_since_ns
+        self.beat_simulated_speed_m_s = self.simulated_speed_m_s
+        self.beat_simulated_speed_age_s = (
+            math.inf if since_ns is None else (now_ns - since_ns) * 1e-9
+        )
+        self.beat_simulated_speed_max_age_s = max(
+            self.get_parameter(STALE_TIMEOUT.name).value, 2.0 * beat.period_s
+        )
         report = self.report
         report.header.stamp = stamp
         report.header.frame_id = self.frame_id
@@ -306,12 +342,23 @@ class MonitorNode(SuiteNodeBase):
                     positive_time_share=f"{beat.positive_time_share:.5f}",
                 )
         if self.last_tip_kinematics is not None:
-            swimming = figures_from_kinematics(self.last_tip_kinematics, self.swimming_parameters)
+            # Chosen here rather than at the beat so that a new forward_speed_m_s applies at once.
+            speed_m_s, source = choose_forward_speed(
+                self.swimming_parameters.forward_speed_m_s,
+                self.beat_simulated_speed_m_s,
+                self.beat_simulated_speed_age_s,
+                self.beat_simulated_speed_max_age_s,
+            )
+            swimming = figures_from_kinematics(
+                self.last_tip_kinematics,
+                dataclasses.replace(self.swimming_parameters, forward_speed_m_s=speed_m_s),
+            )
             values.update(
                 tip_excursion_m=f"{swimming.tip_excursion_m:.5f}",
                 strouhal_number=f"{swimming.strouhal_number:.4f}",
                 lighthill_mean_thrust_n=f"{swimming.mean_thrust_n:.5g}",
-                assumed_forward_speed_m_s=f"{self.swimming_parameters.forward_speed_m_s:g}",
+                forward_speed_m_s=f"{speed_m_s:.6g}",
+                forward_speed_source=source,
             )
         input_level, input_text, input_values = input_status(
             INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S

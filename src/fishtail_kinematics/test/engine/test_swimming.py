@@ -10,8 +10,11 @@ import pytest
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 from fishtail_kinematics.engine.swimming import (
+    SPEED_SOURCE_PARAMETER,
+    SPEED_SOURCE_SIMULATED,
     SwimmingParameters,
     TipSampleBuffer,
+    choose_forward_speed,
     lighthill_mean_thrust,
     strouhal_number,
     swimming_figures,
@@ -182,3 +185,29 @@ def test_live_buffer_drops_a_beat_that_overflows(max_samples, computed):
             results.append(buffer.complete(beat))
         assert len(buffer) <= max_samples
     assert [result is not None for result in results] == computed
+
+
+def test_a_fresh_simulated_speed_is_used():
+    assert choose_forward_speed(0.3, 0.52, 0.0, 2.0) == (0.52, SPEED_SOURCE_SIMULATED)
+    assert choose_forward_speed(0.3, 0.52, 2.0, 2.0) == (0.52, SPEED_SOURCE_SIMULATED)
+    assert choose_forward_speed(0.3, 25.0, 1.0, 2.0) == (25.0, SPEED_SOURCE_SIMULATED)
+
+
+@pytest.mark.parametrize(
+    ("simulated_m_s", "age_s"),
+    [
+        (0.52, 2.001),  # stale
+        (0.52, math.inf),  # never received
+        (math.nan, math.inf),  # never received
+        (0.52, math.nan),
+        (math.nan, 0.1),
+        (math.inf, 0.1),
+        (-math.inf, 0.1),
+        (0.0, 0.1),  # at rest: St = f A / U is undefined
+        (-0.2, 0.1),
+    ],
+)
+def test_a_stale_missing_or_unusable_simulated_speed_falls_back_to_the_parameter(
+    simulated_m_s, age_s
+):
+    assert choose_forward_speed(0.3, simulated_m_s, age_s, 2.0) == (0.3, SPEED_SOURCE_PARAMETER)

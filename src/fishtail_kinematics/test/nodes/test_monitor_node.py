@@ -86,7 +86,8 @@ def test_monitor_reports_the_swimming_figures_of_the_last_beat(monitor):
     assert float(values["lighthill_mean_thrust_n"]) == pytest.approx(
         expected.mean_thrust_n, rel=1e-4
     )
-    assert values["assumed_forward_speed_m_s"] == "0.3"
+    assert values["forward_speed_m_s"] == "0.3"
+    assert values["forward_speed_source"] == "parameter"  # no simulator in this test
 
     # New parameters apply at once to the figures of the last beat.
     from rclpy.parameter import Parameter
