@@ -198,3 +198,15 @@ def test_geometry_change_is_logged_only_when_something_changed(start_node, ros, 
     assert len(lines) == 1, lines
     assert "phase_rad" in lines[0] and "0.3" in lines[0], lines
     assert not any(name in lines[0] for name in values if name != "phase_rad"), lines
+
+
+def test_an_empty_motor_joint_name_is_refused(start_node, ros, config_dir):
+    """``motor_joint_name:=''`` at run time is refused with the reason; the node keeps following."""
+    start_node("kinematics", params_file=config_dir / "oscillatory.yaml")
+    request = SetParameters.Request(parameters=[parameter("motor_joint_name", "")])
+    (result,) = ros.call(SetParameters, "/kinematics/set_parameters", request).results
+    assert not result.successful
+    assert result.reason == "motor_joint_name must not be empty"
+    request = SetParameters.Request(parameters=[parameter("motor_joint_name", "wheel")])
+    (result,) = ros.call(SetParameters, "/kinematics/set_parameters", request).results
+    assert result.successful, result.reason

@@ -27,12 +27,14 @@ import pytest
 
 SPEED = 4.0
 COUNT_RAD = 2 * math.pi / 2048
-#: How far a stamp may be from the time the board read the count: the time between the
-#: driver's clock reading before it sends ``e`` and the emulated board running the command (its
-#: loop waking up, two processes scheduled on a busy machine). A late reply taken for the answer
-#: to a later request is off by more than the read timeout (0.1 s), i.e. 0.4 rad at 4 rad/s.
-STAMP_TOLERANCE_S = 0.05
 READ_TIMEOUT_S = 0.1
+#: How far a stamp may be from the time the board read the count. Honest stamps are off only by
+#: the time between the driver's clock reading before it sends ``e`` and the emulated board
+#: running the command (its loop waking up, two processes scheduled on a busy machine); a late
+#: reply taken for the answer to a later request is off by more than the read timeout, since only
+#: replies later than that are late. So the bound is the read timeout itself: what the defect
+#: violates, with all of the timeout as margin for scheduling.
+STAMP_TOLERANCE_S = READ_TIMEOUT_S
 
 
 def stamp_s(message) -> float:
@@ -98,9 +100,10 @@ def assert_strictly_increasing(joints: list) -> None:
 def test_late_replies_are_discarded_not_published(fake_board, driver_run, delay_ms):
     """Replies later than the read timeout: counted as discarded, never published as samples.
 
-    The board answers at once until the motor turns, then every reply is ``delay_ms`` late (the
-    outside tester's 150 and 300 ms), then it is fast again: the driver must come back, and no
-    sample of the whole run may carry an angle the board read at another time than its stamp.
+    The board answers at once until the motor turns, then every reply is ``delay_ms`` late (150
+    and 300 ms, delays at which boards have been seen to answer), then it is fast again: the
+    driver must come back, and no sample of the whole run may carry an angle the board read at
+    another time than its stamp.
     """
     board = fake_board(delay_ms=delay_ms)
     board.board.set_slow(False)
@@ -150,7 +153,9 @@ def test_slow_board_within_the_timeout_is_stamped_at_the_request_and_warns(fake_
     run.stop()
     errors = assert_stamped_when_read(run.joints, board)
     median = statistics.median(abs(e) for e in errors)
-    assert median < 0.015, f"stamps are {median * 1e3:.1f} ms (median) off the board's readings"
+    # Dated at the request, the typical stamp is within scheduling noise of the reading; dated at
+    # the reply (as before) it would be 40 ms late, half the 80 ms delay.
+    assert median < 0.03, f"stamps are {median * 1e3:.1f} ms (median) off the board's readings"
     assert_strictly_increasing(run.joints)
     assert run.counter("discarded_replies") == 0 or run.counter("timeouts") > 0
 

@@ -1,4 +1,4 @@
-"""The five checks of the swimming-dynamics spec (shared/spec/swimming-dynamics.md)."""
+"""The five checks the swimming model must pass (docs/swimming-dynamics.md, "Checks")."""
 
 import numpy as np
 import pytest
@@ -31,10 +31,6 @@ def test_check1_speed_and_yaw_rate_scale_with_beat_frequency(oscillatory_free_ru
     yaw_per_frequency = means.mean_yaw_rate_rad_s / frequency
     speed_spread = np.ptp(speed_per_frequency) / speed_per_frequency.mean()
     yaw_spread = np.ptp(yaw_per_frequency) / abs(yaw_per_frequency.mean())
-    print(
-        f"\ncheck 1: U/f = {speed_per_frequency} m, spread {speed_spread:.2e}; "
-        f"<r>/f = {yaw_per_frequency} rad, spread {yaw_spread:.2e} (48, 24, 16 steps per beat)"
-    )
     assert speed_spread < 1e-4
     assert yaw_spread < 1e-3
 
@@ -49,11 +45,6 @@ def test_check2_antisymmetric_sinusoid_swims_straight():
     early = beat_means(_first(trajectory, 24 * 6), 1.0, beats=1)
     late = beat_means(trajectory, 1.0, beats=1)
     headings = trajectory.state[:: 24 * 6, 0, 2]
-    print(
-        f"\ncheck 2 (sinusoid): beat 6 <v> {early.mean_sway_m_s[0]:.2e} m/s "
-        f"<r> {early.mean_yaw_rate_rad_s[0]:.2e} rad/s; beat 36 <v> {late.mean_sway_m_s[0]:.2e} "
-        f"<r> {late.mean_yaw_rate_rad_s[0]:.2e}; heading every 6 beats {headings}"
-    )
     assert abs(late.mean_yaw_rate_rad_s[0]) < 1e-3 * abs(early.mean_yaw_rate_rad_s[0])
     assert abs(late.mean_sway_m_s[0]) < 1e-3 * abs(early.mean_sway_m_s[0])
     assert abs(late.mean_yaw_rate_rad_s[0]) < 1e-5
@@ -68,11 +59,6 @@ def test_check2_cardan_tail_turns_in_a_wide_steady_circle(oscillatory_free_run):
     radius_late = turning_radius(trajectory, periods, beats=4)
     radius_earlier = turning_radius(_first(trajectory, records_per_beat * 56), periods, beats=4)
     length = FishParameters().body_length_m
-    print(
-        f"\ncheck 2 (mechanism 1, report geometry): turning radius {radius_late} m "
-        f"(= {radius_late / length} body lengths; < 0: to the right), "
-        f"slowest fish's beats 52-56 {radius_earlier} m"
-    )
     assert np.all(np.isfinite(radius_late))
     assert np.all(np.abs(radius_late) > 50.0 * length)
     # The same circle at every carrier speed (check 1's scaling) and a steady one.
@@ -119,11 +105,6 @@ def test_check3_tail_work_equals_kinetic_energy_without_drag(mechanism):
     for steps_per_beat in (24, 48):
         work, energy = _work_and_energy(model, period / steps_per_beat, steps_per_beat * 3)
         residuals.append(abs(work - energy) / abs(work))
-    print(
-        f"\ncheck 3 ({mechanism}, 3 beats from rest): work {work:.6f} J, kinetic energy "
-        f"{energy:.6f} J, relative residual {residuals[0]:.2e} (24 steps/beat), "
-        f"{residuals[1]:.2e} (48): ratio {residuals[0] / residuals[1]:.1f}"
-    )
     assert residuals[1] < 1e-5
     assert residuals[0] / residuals[1] > 10.0  # fourth order: 16
 
@@ -147,11 +128,6 @@ def test_check4_mean_thrust_converges_to_small_amplitude_theory():
         )
         errors.append(float((thrust - theory) / theory))
     ratios = [errors[k] / errors[k + 1] for k in range(len(errors) - 1)]
-    print(
-        f"\ncheck 4: relative error {errors} at alpha {amplitudes} rad "
-        f"(= {[e / a**2 for e, a in zip(errors, amplitudes, strict=True)]} alpha^2); "
-        f"halving ratios {ratios}"
-    )
     assert all(abs(ratio - 4.0) < 0.05 for ratio in ratios)
     assert abs(errors[-1]) < 1e-3
 
@@ -168,9 +144,7 @@ def test_check5_cycle_average_balance_matches_time_stepping(geometry, request, r
     disagreement = abs(stepped / balanced - 1.0)
     free_run = request.getfixturevalue(f"{geometry.mechanism}_free_run")
     free = beat_means(free_run[2], free_run[3], beats=2).mean_speed_m_s[0]
-    print(
-        f"\ncheck 5 ({geometry.mechanism}, 4 rad/s): cycle-average U = {balanced[0]:.6f} m/s, "
-        f"time-stepped (sway and yaw held) {stepped[0]:.6f} m/s: relative {disagreement[0]:.1e}; "
-        f"free body {free:.6f} m/s ({100 * (free / balanced[0] - 1):+.2f} %)"
-    )
     assert disagreement[0] < 1e-3
+    # The free body's sway and yaw change the speed by several per cent, not by its size
+    # (docs/swimming-dynamics.md tabulates both): the held-body balance is a usable estimate.
+    assert 0.0 < free and abs(free / balanced[0] - 1.0) < 0.25

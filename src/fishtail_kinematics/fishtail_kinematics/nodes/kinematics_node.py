@@ -47,7 +47,7 @@ from fishtail_common.interface import (
     Level,
     Status,
 )
-from fishtail_common.parameters import ParameterSpec
+from fishtail_common.parameters import ParameterSpec, ParameterValueError
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -88,7 +88,10 @@ NO_CARRIER_JOINT = "no_carrier_joint"
 ENGINE_REFUSED = "engine_refused"
 
 MOTOR_JOINT_NAME = ParameterSpec(
-    "motor_joint_name", CARRIER_JOINT, f"joint of {INPUT_TOPIC} that is the carrier"
+    "motor_joint_name",
+    CARRIER_JOINT,
+    f"joint of {INPUT_TOPIC} that is the carrier",
+    non_empty=True,
 )
 FRAME_ID = ParameterSpec(
     "frame_id",
@@ -195,6 +198,12 @@ class KinematicsNode(SuiteNodeBase):
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
+        if MOTOR_JOINT_NAME.name in changed:
+            # The descriptor cannot say "not empty"; an empty name would drop every sample.
+            try:
+                MOTOR_JOINT_NAME.check(changed[MOTOR_JOINT_NAME.name])
+            except ParameterValueError as error:
+                return SetParametersResult(successful=False, reason=str(error))
         current = {name: self.get_parameter(name).value for name in GEOMETRY_PARAMETER_NAMES}
         # `ros2 param load` sets every parameter of the file: only real changes rebuild and log.
         geometry = geometry_changes(current, changed)

@@ -1,10 +1,10 @@
 """Swimming figures of a trajectory over whole beats, and the cycle-average steady speed.
 
-Definitions (the spec's): the mean speed Ū is the distance travelled by C over whole beats divided
-by their duration, measured beat end to beat end (so the wiggle inside a beat does not count);
-the mean thrust is <F_T,x> over the beats; the tail power P = -<F_T . (-Tx_dot, Ty_dot)>; the
-Froude efficiency <F_T,x> Ū / P; the Strouhal number f A / Ū with A the tip's peak-to-peak
-lateral excursion. The turning radius is that of the circle through the beat-end positions:
+Definitions (docs/swimming-dynamics.md): the mean speed Ū is the distance travelled by C over whole
+beats divided by their duration, measured beat end to beat end (so the wiggle inside a beat does
+not count); the mean thrust is <F_T,x> over the beats; the tail power P = -<F_T . (-Tx_dot,
+Ty_dot)>; the Froude efficiency <F_T,x> Ū / P; the Strouhal number f A / Ū with A the tip's peak-
+to-peak lateral excursion. The turning radius is that of the circle through the beat-end positions:
 R = chord / (2 sin(dpsi/2)) per beat, signed (> 0 turning left, inf swimming straight).
 
 Beat boundaries must fall on recorded samples: the recording interval has to divide every fish's

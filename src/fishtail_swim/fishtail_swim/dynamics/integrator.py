@@ -69,7 +69,7 @@ def simulate(
 ) -> Trajectory:
     """Integrate ``fish_count`` fish for ``steps`` steps of ``step_s`` from t = 0.
 
-    The default start is the spec's: at rest at the origin, heading along world x. Every
+    The default start is the documented one: at rest at the origin, heading along world x. Every
     ``record_every``-th state is kept (and the first).
     """
     if not (math.isfinite(step_s) and step_s > 0.0):

@@ -1,4 +1,4 @@
-"""Forces on the fish and its equations of motion in the horizontal plane (the spec's model).
+"""Forces on the fish and its equations of motion in the horizontal plane.
 
 Frames (docs/swimming-dynamics.md): body ``base_link`` (REP 103: origin at the centre of mass C,
 x forward, y left), tail frame at O (x backward, y left, z down) with O at x_b = -l_O, so a tail
@@ -97,7 +97,10 @@ def body_force(
 
 
 class Recoil(NamedTuple):
-    """The fin's recoil split as the spec asks: F_rec = -m c (g . nu_dot) g + rest."""
+    """The fin's recoil, split so that its body-acceleration part is added mass.
+
+    F_rec = -m c (g . nu_dot) g + rest.
+    """
 
     direction: tuple[FloatArray, FloatArray, FloatArray]
     added_mass_kg: FloatArray

@@ -2,7 +2,7 @@
 
 Balance (fast, every speed at once): the body held at u = U, v = r = 0, U from
 :func:`~fishtail_swim.dynamics.figures.steady_surge_speed`; thrust, tail power and the tip's
-excursion are cycle means of the trailing-edge force over one beat at that U, with the spec's
+excursion are cycle means of the trailing-edge force over one beat at that U, with the documented
 definitions (P = -<F_T . (-Tx_dot, Ty_dot)>, eta = <F_T,x> U / P, St = f A / U).
 Check (slow): the same fish free in sway and yaw, stepped from rest (:mod:`.time_run`).
 """
