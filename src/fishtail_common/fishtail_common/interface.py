@@ -7,7 +7,7 @@ way the nodes do. Topic names are relative (a namespace moves the whole suite) e
 >>> TAIL_STATE.name, TAIL_STATE.type
 ('tail/state', 'fishtail_msgs/msg/TailState')
 >>> [topic.name for topic in SUITE_TOPICS if topic.qos is QosKind.SENSOR_DATA]
-['motor/joint_state', 'tail/joint_states', 'tail/tip', 'tail/state']
+['motor/joint_state', 'tail/joint_states', 'tail/tip', 'tail/state', 'fish/odom']
 """
 
 from __future__ import annotations
@@ -116,6 +116,8 @@ SUITE_TOPICS: tuple[Topic, ...] = (
     TAIL_TIP,
     TAIL_STATE,
     TAIL_SYMMETRY,
+    FISH_ODOM,
+    FISH_SWIMMING,
     DIAGNOSTICS,
 )
 
