@@ -22,11 +22,18 @@ library's definitions (:mod:`fishtail_swim.dynamics.figures` for one beat on a u
 the same numbers; the unit tests check that).
 
 An interval longer than ``max_interval_s`` (the input stopped, then resumed) is not integrated:
-the fish keeps its state, time jumps, and the beat in progress is abandoned.
+the fish keeps its state, time jumps, and the beat in progress is abandoned. :meth:`SwimFollower.
+restart` does the same at any sample, also one stamped before the previous (a restarted driver, a
+replayed recording); the fish's time then stands still across it.
+
+:meth:`SwimFollower.follow` is all or nothing: when the engine or the dynamics raise within an
+interval, the error propagates and the follower is left as it was before the call, so the next
+sample integrates from the last one that succeeded.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import NamedTuple
 
@@ -43,6 +50,10 @@ TWO_PI = 2.0 * math.pi
 # Sub-intervals shorter than this are not integrated (a beat boundary that coincides with a
 # sample up to rounding): far below any step, far above the rounding of times of a long run.
 _MIN_SEGMENT_S = 1e-12
+
+
+class StampNotIncreasingError(ValueError):
+    """A sample stamped at or before the previous one: the fish's time cannot go back."""
 
 
 class LinearCarrier:
@@ -188,8 +199,10 @@ class SwimFollower:
     def follow(self, stamp_ns: int, angle_rad: float) -> None:
         """Integrate up to the sample at ``stamp_ns`` (after the previous one) with its angle.
 
-        Raises ValueError for a non-finite angle or a stamp not after the previous sample's:
-        the caller drops those before (the node's input guard).
+        Raises ValueError for a non-finite angle and :class:`StampNotIncreasingError` for a stamp
+        not after the previous sample's: the caller drops those before (the node's input guard).
+        An error of the engine or the dynamics (FishtailKinematicsError, SwimError) propagates
+        and leaves the follower unchanged.
         """
         if not math.isfinite(angle_rad):
             raise ValueError(f"carrier angle {angle_rad!r} is not finite")
@@ -200,28 +213,73 @@ class SwimFollower:
             self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
             return
         if stamp_ns <= self._last_stamp_ns:
-            raise ValueError(f"stamp {stamp_ns} ns is not after the previous {self._last_stamp_ns}")
+            raise StampNotIncreasingError(
+                f"stamp {stamp_ns} ns is not after the previous {self._last_stamp_ns}"
+            )
         start_time, start_angle = self.time_s, self.angle_rad
         end_time = (stamp_ns - self.first_stamp_ns) * 1e-9
-        self._last_stamp_ns = stamp_ns
         duration = end_time - start_time
         if duration > self.max_interval_s:
+            self._last_stamp_ns = stamp_ns
             self._restart(end_time, angle_rad)
             return
         speed = (angle_rad - start_angle) / duration
-        self.carrier.set(start_time, start_angle, speed)
-        segment_start = start_time
-        # Beat boundaries crossed in this interval become sub-step boundaries.
-        while speed > 0.0 and angle_rad >= self._next_boundary_rad:
-            crossing = start_time + (self._next_boundary_rad - start_angle) / speed
-            crossing = min(max(crossing, segment_start), end_time)
-            self._integrate(segment_start, crossing)
-            segment_start = crossing
-            self._next_boundary_rad += TWO_PI
-            self._finish_beat()
-            self._start_beat(crossing)
-        self._integrate(segment_start, end_time)
+        carrier = self.carrier
+        previous_carrier = (carrier.start_time_s, carrier.start_angle_rad, carrier.speed_rad_s)
+        carrier.set(start_time, start_angle, speed)
+        # Everything below works on local copies; the follower takes them only once the whole
+        # interval is integrated, so a failure part-way cannot leave a half-advanced fish.
+        try:
+            state = self.state
+            beat = copy.copy(self._beat)  # its sums grow in place
+            next_boundary = self._next_boundary_rad
+            finished: list[BeatFigures] = []
+            steps = 0
+            segment_start = start_time
+            # Beat boundaries crossed in this interval become sub-step boundaries.
+            while speed > 0.0 and angle_rad >= next_boundary:
+                crossing = start_time + (next_boundary - start_angle) / speed
+                crossing = min(max(crossing, segment_start), end_time)
+                state, segment_steps = self._integrate(state, beat, segment_start, crossing)
+                steps += segment_steps
+                segment_start = crossing
+                next_boundary += TWO_PI
+                if beat is not None:
+                    index = self.beats_completed + len(finished)
+                    finished.append(beat.figures(index, state, self._body_length_m))
+                beat = _BeatAccumulator(crossing, state, *self._tail_figures_now(crossing, state))
+            state, segment_steps = self._integrate(state, beat, segment_start, end_time)
+            steps += segment_steps
+        except BaseException:
+            carrier.set(*previous_carrier)
+            raise
+        self.state = state
+        self._beat = beat
+        self._next_boundary_rad = next_boundary
+        self.finished.extend(finished)
+        self.beats_completed += len(finished)
+        self.sub_steps += steps
+        self._last_stamp_ns = stamp_ns
         self.time_s, self.angle_rad = end_time, angle_rad
+
+    def restart(self, stamp_ns: int, angle_rad: float) -> None:
+        """Follow the carrier afresh from this sample, whatever its stamp and angle.
+
+        For a stream that restarted (a restarted driver, a replayed recording): the carrier's
+        phase relative to the previous samples is unknown, so nothing is integrated up to this
+        sample and the beat in progress is abandoned, as after a gap; the fish keeps its state.
+        A stamp at or before the previous one moves the fish's time 0 (``first_stamp_ns``) by as
+        much, so the fish's time stands still across the restart instead of going back.
+        """
+        if not math.isfinite(angle_rad):
+            raise ValueError(f"carrier angle {angle_rad!r} is not finite")
+        if self.time_s is None:
+            self.follow(stamp_ns, angle_rad)
+            return
+        if stamp_ns <= self._last_stamp_ns:
+            self.first_stamp_ns += stamp_ns - self._last_stamp_ns
+        self._last_stamp_ns = stamp_ns
+        self._restart((stamp_ns - self.first_stamp_ns) * 1e-9, angle_rad)
 
     def take_beats(self) -> list[BeatFigures]:
         """The beats completed since the last call, oldest first."""
@@ -234,37 +292,28 @@ class SwimFollower:
         self.time_s, self.angle_rad = time_s, angle_rad
         self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
 
-    def _tail_figures_now(self, time_s: float) -> tuple[float, float, float]:
-        """Thrust F_T,x, tail power and the tip's body-frame y at ``time_s`` for the state."""
-        flow, _, tail = self.model.forces(time_s, self.state)
+    def _tail_figures_now(self, time_s: float, state: FloatArray) -> tuple[float, float, float]:
+        """Thrust F_T,x, tail power and the tip's body-frame y at ``time_s`` for ``state``."""
+        flow, _, tail = self.model.forces(time_s, state)
         force = flow.force
         power = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
         return float(force.x.item()), float(power.item()), float(tail.tip_y.item())
 
-    def _start_beat(self, time_s: float) -> None:
-        self._beat = _BeatAccumulator(time_s, self.state, *self._tail_figures_now(time_s))
-
-    def _finish_beat(self) -> None:
-        beat = self._beat
-        if beat is None:
-            return
-        self.finished.append(beat.figures(self.beats_completed, self.state, self._body_length_m))
-        self.beats_completed += 1
-        self._beat = None
-
-    def _integrate(self, start_s: float, end_s: float) -> None:
+    def _integrate(
+        self, state: FloatArray, beat: _BeatAccumulator | None, start_s: float, end_s: float
+    ) -> tuple[FloatArray, int]:
+        """``state`` integrated from ``start_s`` to ``end_s`` (added to ``beat``), and the steps."""
         length = end_s - start_s
         if length < _MIN_SEGMENT_S:
-            return
+            return state, 0
         # A step a rounding error longer than max_step_s (stamps are whole nanoseconds) is one step.
         steps = max(1, math.ceil(length / self.max_step_s - 1e-6))
         step = length / steps
         derivatives = self.model.derivatives
-        beat = self._beat
         for index in range(steps):
             time = start_s + index * step
-            self.state = rk4_step(derivatives, time, self.state, step)
+            state = rk4_step(derivatives, time, state, step)
             if beat is not None:
                 end = end_s if index == steps - 1 else time + step
-                beat.add(end, *self._tail_figures_now(end))
-        self.sub_steps += steps
+                beat.add(end, *self._tail_figures_now(end, state))
+        return state, steps

@@ -1,12 +1,14 @@
 """SwimFollower: following carrier samples reproduces the library's run and its beat figures."""
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
 
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry
-from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_swim.dynamics.figures import beat_means, tail_figures
 from fishtail_swim.dynamics.fish import FishParameters
 from fishtail_swim.dynamics.integrator import Trajectory, simulate
@@ -132,3 +134,108 @@ def test_refuses_what_the_node_must_drop_first(tail):
         follower.follow(2_000, math.nan)
     with pytest.raises(ValueError, match="max_step_s"):
         SwimFollower(tail, FishParameters(), 0.0)
+
+
+SAMPLE_NS = 5_000_000
+#: The sample interval (k - 1, k] crossing the first beat boundary 2 pi at 8 rad/s and 5 ms.
+CROSSING_SAMPLE = 158
+
+
+def sample_angle(k: int) -> float:
+    return SPEED_RAD_S * k * SAMPLE_NS * 1e-9
+
+
+class CountingTail:
+    """A tail that counts its solves and refuses the one numbered ``fail_at``."""
+
+    def __init__(self, tail: Tail) -> None:
+        """Wrap ``tail``; no solve fails until ``fail_at`` is set."""
+        self.tail = tail
+        self.calls = 0
+        self.fail_at: int | None = None
+
+    def solve(self, angle: Any, speed: Any) -> Any:
+        """The tail's solve, or FishtailKinematicsError at call ``fail_at``."""
+        self.calls += 1
+        if self.calls == self.fail_at:
+            raise FishtailKinematicsError("solver refused (test)")
+        return self.tail.solve(angle, speed)
+
+
+def counting_follower(tail: Tail, upto: int) -> tuple[SwimFollower, CountingTail]:
+    follower = SwimFollower(tail, FishParameters(), 0.001)
+    counting = CountingTail(tail)
+    follower.model.drive.tail = counting  # type: ignore[attr-defined]
+    for k in range(upto + 1):
+        follower.follow(k * SAMPLE_NS, sample_angle(k))
+    return follower, counting
+
+
+def snapshot(follower: SwimFollower) -> dict[str, Any]:
+    """Everything a follow may change, copied."""
+    beat = follower._beat
+    carrier = follower.carrier
+    return {
+        "state": follower.state.tolist(),
+        "time_s": follower.time_s,
+        "angle_rad": follower.angle_rad,
+        "first_stamp_ns": follower.first_stamp_ns,
+        "last_stamp_ns": follower._last_stamp_ns,
+        "next_boundary_rad": follower._next_boundary_rad,
+        "beat": None if beat is None else dict(vars(beat)),
+        "beats_completed": follower.beats_completed,
+        "finished": list(follower.finished),
+        "sub_steps": follower.sub_steps,
+        "restarts": follower.restarts,
+        "carrier": (carrier.start_time_s, carrier.start_angle_rad, carrier.speed_rad_s),
+    }
+
+
+def test_an_engine_error_mid_interval_leaves_the_follower_as_it_was(tail):
+    """The last solve of an interval that ends a beat fails: nothing of it is kept."""
+    before = CROSSING_SAMPLE - 1
+    reference, counting = counting_follower(tail, before)
+    calls = counting.calls
+    reference.follow(CROSSING_SAMPLE * SAMPLE_NS, sample_angle(CROSSING_SAMPLE))
+    solves_in_interval = counting.calls - calls
+    assert reference.beats_completed == 1  # the interval does end a beat
+
+    follower, failing = counting_follower(tail, before)
+    unchanged = snapshot(follower)
+    # Fail as late as possible: the whole interval, its beat end included, was worked through.
+    failing.fail_at = failing.calls + solves_in_interval
+    with pytest.raises(FishtailKinematicsError):
+        follower.follow(CROSSING_SAMPLE * SAMPLE_NS, sample_angle(CROSSING_SAMPLE))
+    assert snapshot(follower) == unchanged
+
+    # The next sample continues as if the refused one never came.
+    never_saw_it, _ = counting_follower(tail, before)
+    after = CROSSING_SAMPLE + 1
+    for each in (follower, never_saw_it):
+        each.follow(after * SAMPLE_NS, sample_angle(after))
+    assert snapshot(follower) == snapshot(never_saw_it)
+    assert follower.beats_completed == 1
+
+
+def test_a_restart_with_stamps_and_angle_going_back_is_followed(tail):
+    """A restarted driver after a pause: stamps and angle from 0 again, the fish swims on."""
+    follower = SwimFollower(tail, FishParameters(), 0.001)
+    for k in range(100):
+        follower.follow(10**12 + k * SAMPLE_NS, sample_angle(k))
+    state, time_s = follower.state.copy(), follower.time_s
+    assert follower._beat is not None
+
+    follower.restart(SAMPLE_NS, 0.0)
+    assert follower.restarts == 1 and follower._beat is None
+    assert follower.time_s == time_s  # the fish's time does not go back
+    np.testing.assert_array_equal(follower.state, state)
+    assert follower.take_beats() == []
+    revolution = 2 * math.ceil(PERIOD_S / (SAMPLE_NS * 1e-9))
+    for k in range(2, revolution):
+        follower.follow(k * SAMPLE_NS, sample_angle(k - 1))
+        # The carrier's speed is the new stream's, never the jump back from the old angle.
+        assert follower.carrier.speed_rad_s == pytest.approx(SPEED_RAD_S, rel=1e-6)
+    (beat,) = follower.take_beats()
+    assert beat.duration_s == pytest.approx(PERIOD_S, rel=STAMP_TOLERANCE)
+    assert beat.end_time_s > time_s
+    assert follower.first_stamp_ns + round(beat.end_time_s * 1e9) < revolution * SAMPLE_NS

@@ -17,10 +17,12 @@ Topics (relative names):
 The dynamics are :mod:`fishtail_swim.dynamics`, driven through :class:`SwimFollower` (RK4 between
 consecutive samples on the linearly interpolated carrier angle, sub-steps of at most
 ``max_step_sec``). Implausible samples are dropped by the kinematics node's rules
-(:mod:`fishtail_kinematics.engine.input_guard`) and counted per reason. Every parameter (the
-geometry as for the kinematics node, e.g. ``config/oscillatory.yaml``; the fish, e.g.
-``config/fish.yaml``) is read-only: the simulation's fish and tail are fixed for its run, and a
-run-time change is refused by ROS.
+(:mod:`fishtail_kinematics.engine.input_guard`) and counted per reason; when the guard follows the
+stream afresh after its timeout, so does the fish (:meth:`SwimFollower.restart`). A sample the
+engine or the dynamics refuse is dropped as ``engine_refused``, and the fish stays where it was.
+Every parameter (the geometry as for the kinematics node, e.g. ``config/oscillatory.yaml``; the
+fish, e.g. ``config/fish.yaml``) is read-only: the simulation's fish and tail are fixed for its
+run, and a run-time change is refused by ROS.
 """
 
 from __future__ import annotations
@@ -66,9 +68,10 @@ from fishtail_kinematics.engine.parameters import (
     geometry_parameters_in,
 )
 from fishtail_msgs.msg import SwimFigures
+from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
 from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
-from fishtail_swim.follower import BeatFigures, SwimFollower
+from fishtail_swim.follower import BeatFigures, StampNotIncreasingError, SwimFollower
 from fishtail_swim.nodes.fish_markers import (
     MARKER_PARAMETERS,
     MARKERS_PATH_LENGTH,
@@ -78,8 +81,9 @@ from fishtail_swim.nodes.fish_markers import (
 
 INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
-#: Drop reason of the node itself, besides the guard's.
+#: Drop reasons of the node itself, besides the guard's.
 NO_CARRIER_JOINT = "no_carrier_joint"
+ENGINE_REFUSED = "engine_refused"
 
 MOTOR_JOINT_NAME = ParameterSpec(
     "motor_joint_name", CARRIER_JOINT, f"joint of {INPUT_TOPIC} that is the carrier"
@@ -153,13 +157,15 @@ class SimNode(SuiteNodeBase):
         self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
         self.guard = CarrierGuard()
         self.guard.apply_parameters(values)
-        self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT))
+        self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT, ENGINE_REFUSED))
         self._drop_log = {
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
         self.timing = StreamTiming()
         self.received = 0
         self.last_input_ns: int | None = None
+        #: Node clock when the guard last accepted a sample (None before the first).
+        self._accepted_ns: int | None = None
         self.tail_name = tail.name
 
         self.odom = Odometry()
@@ -219,18 +225,30 @@ class SimNode(SuiteNodeBase):
         velocity = float(message.velocity[index]) if index < len(message.velocity) else 0.0
         stamp = message.header.stamp
         stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
+        # The guard's own rule for following the stream afresh (nothing accepted for
+        # restart_after_ns): it then accepts stamps and angles that went back, which the follower
+        # must not integrate across, so the follower restarts at the same sample.
+        accepted_ns = self._accepted_ns
+        fresh = accepted_ns is None or now_ns - accepted_ns > self.guard.restart_after_ns
         reason = self.guard.check(stamp_ns, angle, velocity, now_ns)
         if reason is not None:
             self._reject(reason, self._drop_log[reason])
             return
+        self._accepted_ns = now_ns
         self.timing.observe(stamp_ns * 1e-9)
         follower = self.follower
         try:
-            follower.follow(stamp_ns, angle)
-        except ValueError:
-            # The guard follows a stream afresh after its timeout, whatever the stamp; the fish's
-            # time cannot go back.
+            if fresh:
+                follower.restart(stamp_ns, angle)
+            else:
+                follower.follow(stamp_ns, angle)
+        except StampNotIncreasingError:
             self._reject(STAMP_NOT_INCREASING, self._drop_log[STAMP_NOT_INCREASING])
+            return
+        except (FishtailKinematicsError, SwimError) as error:
+            # Not expected for a validated geometry and plausible input; if it happens, one
+            # sample is dropped and reported, the fish keeps its last good state.
+            self._reject(ENGINE_REFUSED, f"engine refused carrier angle {angle!r}: {error}")
             return
         self.publish_odometry(stamp)
         self.markers.latest = (follower.state, angle, stamp)
