@@ -86,7 +86,6 @@ class DriverNode(SuiteNodeBase):
         if reason is not None:
             raise ValueError(reason)
         self.backend.set_command_hold(self.cmd_timeout_sec + COMMAND_HOLD_MARGIN_S)
-        self.backend.start()
 
         self.commanded_speed = 0.0
         self.last_command_ns: int | None = None
@@ -131,6 +130,9 @@ class DriverNode(SuiteNodeBase):
             "cmd_timeout_sec": self._apply_cmd_timeout,
         }
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        # Started last: nothing above can fail after the port is open and the I/O thread runs,
+        # so a refused start-up never leaves them behind.
+        self.backend.start()
         self.get_logger().info(
             f"driver up: backend {self.backend.name}, {self.publish_rate_hz:g} Hz, "
             f"watchdog {self.cmd_timeout_sec:g} s"

@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_kinematics.engine.mechanisms import Tail
+from fishtail_swim.dynamics.figures import tail_power
 from fishtail_swim.dynamics.fish import FishParameters, FloatArray
 from fishtail_swim.dynamics.integrator import rk4_step
 from fishtail_swim.dynamics.model import PSI, STATE_SIZE, SwimModel, X, Y
@@ -296,7 +297,7 @@ class SwimFollower:
         """Thrust F_T,x, tail power and the tip's body-frame y at ``time_s`` for ``state``."""
         flow, _, tail = self.model.forces(time_s, state)
         force = flow.force
-        power = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
+        power = tail_power(force, tail)
         return float(force.x.item()), float(power.item()), float(tail.tip_y.item())
 
     def _integrate(

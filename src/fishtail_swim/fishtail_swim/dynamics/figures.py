@@ -27,9 +27,18 @@ import numpy.typing as npt
 from fishtail_swim.dynamics.errors import BeatAlignmentError, NoSteadySpeedError
 from fishtail_swim.dynamics.fish import FishParameters, FloatArray
 from fishtail_swim.dynamics.integrator import Trajectory
-from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, SwimModel, X, Y
+from fishtail_swim.dynamics.model import (
+    PSI,
+    SURGE,
+    SWAY,
+    YAW_RATE,
+    GeneralisedForce,
+    SwimModel,
+    X,
+    Y,
+)
 from fishtail_swim.dynamics.model import trailing_edge_force as _trailing_edge_force
-from fishtail_swim.dynamics.tail_drive import TailDrive
+from fishtail_swim.dynamics.tail_drive import TailDrive, TailSample
 
 # How far period/step may be from an integer and still count as whole steps per beat.
 _ALIGNMENT_TOLERANCE = 1e-6
@@ -127,6 +136,16 @@ class TailFigures(NamedTuple):
     strouhal_number: FloatArray
 
 
+def tail_power(force: GeneralisedForce, tail: TailSample) -> FloatArray:
+    """Rate at which the tail works against the reactive force: -F_T . (-Tx_dot, Ty_dot).
+
+    The tip's velocity relative to the body is (-Tx_dot, Ty_dot) in the body frame (the tail
+    frame's x points backward).
+    """
+    power: FloatArray = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
+    return power
+
+
 def tail_figures(
     model: SwimModel, trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int
 ) -> TailFigures:
@@ -134,9 +153,8 @@ def tail_figures(
     window = beat_window(trajectory, beat_period_s, beats)
     flow, _, tail = model.forces(trajectory.time_s[:, None], trajectory.state)
     force = flow.force
-    power = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
     thrust = _window_mean(force.x, trajectory.time_s, window)
-    tail_power = _window_mean(power, trajectory.time_s, window)
+    mean_power = _window_mean(tail_power(force, tail), trajectory.time_s, window)
     speed = beat_means(trajectory, beat_period_s, beats).mean_speed_m_s
     start, end = window.indices[0], window.indices[-1]
     record = np.arange(trajectory.time_s.size)[:, None]
@@ -147,7 +165,7 @@ def tail_figures(
     ).min(axis=0)
     frequency = beats / window.duration_s
     return TailFigures(
-        thrust, tail_power, thrust * speed / tail_power, excursion, frequency * excursion / speed
+        thrust, mean_power, thrust * speed / mean_power, excursion, frequency * excursion / speed
     )
 
 

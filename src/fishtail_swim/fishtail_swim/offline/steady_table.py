@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_swim.dynamics.figures import steady_surge_speed
+from fishtail_swim.dynamics.figures import steady_surge_speed, tail_power
 from fishtail_swim.dynamics.fish import FloatArray
 from fishtail_swim.dynamics.model import trailing_edge_force
 from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
@@ -80,7 +80,7 @@ def _steady_batch(swimmer: Swimmer, speeds: FloatArray) -> SteadyRows:
     held = np.zeros_like(surge)
     force = trailing_edge_force(fish, tail, surge, held, held).force
     thrust = force.x.mean(axis=0)
-    power = (force.x * tail.tip_x_dot - force.y * tail.tip_y_dot).mean(axis=0)
+    power = tail_power(force, tail).mean(axis=0)
     frequency = 1.0 / period
     excursion = np.ptp(tail.tip_y, axis=0)
     return SteadyRows(
