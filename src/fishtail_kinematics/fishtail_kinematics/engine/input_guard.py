@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from fishtail_common.interface import Level
+from fishtail_common.interface import CARRIER_JOINT, MOTOR_JOINT_STATE, Level
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_common.stream_timing import PeriodTiming
 
@@ -157,6 +157,49 @@ class CarrierGuard:
         if STALE_TIMEOUT.name in values:
             # After the nodes' stale timeout without an accepted sample, follow the stream afresh.
             self.restart_after_ns = int(float(values[STALE_TIMEOUT.name]) * 1e9)
+
+
+#: Drop reasons of a node that follows the carrier, besides the guard's: the message does not
+#: name the carrier joint, or the engine refused the angle.
+NO_CARRIER_JOINT = "no_carrier_joint"
+ENGINE_REFUSED = "engine_refused"
+#: Every reason a carrier follower drops a sample for, in the order the diagnostics list them.
+FOLLOWER_REASONS = (*GUARD_REASONS, NO_CARRIER_JOINT, ENGINE_REFUSED)
+
+MOTOR_JOINT_NAME = ParameterSpec(
+    "motor_joint_name",
+    CARRIER_JOINT,
+    f"joint of {MOTOR_JOINT_STATE.name} that is the carrier",
+    non_empty=True,
+)
+
+
+class CarrierJoint:
+    """Where the carrier joint is in a JointState's names, cached while the names stay the same.
+
+    >>> joint = CarrierJoint("carrier_joint")
+    >>> joint.index(["wheel", "carrier_joint"]), joint.index(["wheel"])
+    (1, None)
+    """
+
+    def __init__(self, name: str) -> None:
+        """Look for the joint ``name``."""
+        self.name = name
+        self._names: tuple[str, ...] = ()
+        self._index: int | None = None
+
+    def rename(self, name: str) -> None:
+        """Look for another joint from now on."""
+        self.name = name
+        self._names, self._index = (), None
+
+    def index(self, names: list[str] | tuple[str, ...]) -> int | None:
+        """The joint's index in ``names``, or None when they do not name it."""
+        key = tuple(names)
+        if key != self._names:
+            self._names = key
+            self._index = key.index(self.name) if self.name in key else None
+        return self._index
 
 
 class DropCounts:

@@ -36,7 +36,6 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from fishtail_common.interface import (
-    CARRIER_JOINT,
     DIAGNOSTICS,
     MECHANISM_CODES,
     MOTOR_JOINT_STATE,
@@ -56,11 +55,15 @@ from fishtail_kinematics.engine.geometry import (
     LinkageState,
 )
 from fishtail_kinematics.engine.input_guard import (
+    ENGINE_REFUSED,
+    FOLLOWER_REASONS,
     GUARD_PARAMETERS,
-    GUARD_REASONS,
+    MOTOR_JOINT_NAME,
+    NO_CARRIER_JOINT,
     REASON_TEXT,
     STALE_TIMEOUT,
     CarrierGuard,
+    CarrierJoint,
     DropCounts,
     input_status,
 )
@@ -83,16 +86,7 @@ from fishtail_msgs.msg import TailState
 
 INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
-#: Drop reasons of the node itself, besides the guard's.
-NO_CARRIER_JOINT = "no_carrier_joint"
-ENGINE_REFUSED = "engine_refused"
 
-MOTOR_JOINT_NAME = ParameterSpec(
-    "motor_joint_name",
-    CARRIER_JOINT,
-    f"joint of {INPUT_TOPIC} that is the carrier",
-    non_empty=True,
-)
 FRAME_ID = ParameterSpec(
     "frame_id",
     TAIL_FRAME,
@@ -129,12 +123,12 @@ class KinematicsNode(SuiteNodeBase):
         self.frame_id = str(values[FRAME_ID.name])
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
         self.stale_timeout_s = float(values[STALE_TIMEOUT.name])
-        self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
+        self.carrier_joint = CarrierJoint(self.motor_joint_name)
         self._previous_input: tuple[int, float] | None = None  # (stamp ns, angle) accepted
         self.received = 0
         self.guard = CarrierGuard()
         self.guard.apply_parameters(values)
-        self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT, ENGINE_REFUSED))
+        self.drops = DropCounts(FOLLOWER_REASONS)
         self._drop_log = {
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
@@ -220,7 +214,7 @@ class KinematicsNode(SuiteNodeBase):
             self.get_logger().info(f"geometry changed: {changes_text(geometry)}")
         if MOTOR_JOINT_NAME.name in changed:
             self.motor_joint_name = changed[MOTOR_JOINT_NAME.name]
-            self._joint_index_cache = ((), None)
+            self.carrier_joint.rename(self.motor_joint_name)
         if STALE_TIMEOUT.name in changed:
             self.stale_timeout_s = changed[STALE_TIMEOUT.name]
         if MARKERS_RATE.name in changed:
@@ -230,14 +224,6 @@ class KinematicsNode(SuiteNodeBase):
         self.guard.apply_parameters(changed)
         return SetParametersResult(successful=True)
 
-    def _joint_index(self, names: list[str]) -> int | None:
-        key = tuple(names)
-        cached_names, index = self._joint_index_cache
-        if key != cached_names:
-            index = key.index(self.motor_joint_name) if self.motor_joint_name in key else None
-            self._joint_index_cache = (key, index)
-        return index
-
     def _reject(self, reason: str, text: str) -> None:
         self.drops.count(reason)
         self.get_logger().warning(text, throttle_duration_sec=2.0)
@@ -246,7 +232,7 @@ class KinematicsNode(SuiteNodeBase):
         self.received += 1
         now_ns = self.get_clock().now().nanoseconds
         self.last_input_ns = now_ns
-        index = self._joint_index(message.name)
+        index = self.carrier_joint.index(message.name)
         if index is None or index >= len(message.position):
             self._reject(
                 NO_CARRIER_JOINT,

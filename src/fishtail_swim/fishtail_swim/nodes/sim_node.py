@@ -37,7 +37,6 @@ from sensor_msgs.msg import JointState
 
 from fishtail_common.interface import (
     BODY_FRAME,
-    CARRIER_JOINT,
     DIAGNOSTICS,
     FISH_ODOM,
     FISH_SWIMMING,
@@ -52,12 +51,16 @@ from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
 from fishtail_kinematics.engine.input_guard import (
+    ENGINE_REFUSED,
+    FOLLOWER_REASONS,
     GUARD_PARAMETERS,
-    GUARD_REASONS,
+    MOTOR_JOINT_NAME,
+    NO_CARRIER_JOINT,
     REASON_TEXT,
     STALE_TIMEOUT,
     STAMP_NOT_INCREASING,
     CarrierGuard,
+    CarrierJoint,
     DropCounts,
     input_status,
 )
@@ -81,13 +84,7 @@ from fishtail_swim.nodes.fish_markers import (
 
 INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
-#: Drop reasons of the node itself, besides the guard's.
-NO_CARRIER_JOINT = "no_carrier_joint"
-ENGINE_REFUSED = "engine_refused"
 
-MOTOR_JOINT_NAME = ParameterSpec(
-    "motor_joint_name", CARRIER_JOINT, f"joint of {INPUT_TOPIC} that is the carrier"
-)
 MAX_STEP = ParameterSpec(
     "max_step_sec",
     # One sub-step per sample at the driver's default 200 Hz: 63 steps per beat even at the
@@ -154,10 +151,10 @@ class SimNode(SuiteNodeBase):
             tail, fish, float(values[MAX_STEP.name]), max_interval_s=self.stale_timeout_s
         )
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
-        self._joint_index_cache: tuple[tuple[str, ...], int | None] = ((), None)
+        self.carrier_joint = CarrierJoint(self.motor_joint_name)
         self.guard = CarrierGuard()
         self.guard.apply_parameters(values)
-        self.drops = DropCounts((*GUARD_REASONS, NO_CARRIER_JOINT, ENGINE_REFUSED))
+        self.drops = DropCounts(FOLLOWER_REASONS)
         self._drop_log = {
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
@@ -198,14 +195,6 @@ class SimNode(SuiteNodeBase):
             f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms"
         )
 
-    def _joint_index(self, names: list[str]) -> int | None:
-        key = tuple(names)
-        cached_names, index = self._joint_index_cache
-        if key != cached_names:
-            index = key.index(self.motor_joint_name) if self.motor_joint_name in key else None
-            self._joint_index_cache = (key, index)
-        return index
-
     def _reject(self, reason: str, text: str) -> None:
         self.drops.count(reason)
         self.get_logger().warning(text, throttle_duration_sec=2.0)
@@ -214,7 +203,7 @@ class SimNode(SuiteNodeBase):
         self.received += 1
         now_ns = self.get_clock().now().nanoseconds
         self.last_input_ns = now_ns
-        index = self._joint_index(message.name)
+        index = self.carrier_joint.index(message.name)
         if index is None or index >= len(message.position):
             self._reject(
                 NO_CARRIER_JOINT,
