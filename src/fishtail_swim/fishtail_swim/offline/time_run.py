@@ -1,8 +1,8 @@
 """Time-stepped runs from rest with the engine in the loop, and their figures over whole beats.
 
-The stepping loop is :func:`~fishtail_swim.dynamics.integrator.simulate`'s (classical RK4, the
-engine solved at every sub-step time, times from the step count) with a progress report every few
-hundred steps; the figures are the dynamics library's (beat means, tail figures).
+The stepping is :func:`~fishtail_swim.dynamics.integrator.simulate` (classical RK4, the engine
+solved at every sub-step time, times from the step count) with a progress report after each block
+of steps; the figures are the dynamics library's (beat means, tail figures).
 """
 
 from __future__ import annotations
@@ -15,16 +15,14 @@ import numpy as np
 from fishtail_swim.dynamics.errors import SwimInputError
 from fishtail_swim.dynamics.figures import BeatMeans, TailFigures, beat_means, tail_figures
 from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.integrator import Trajectory, rk4_step
-from fishtail_swim.dynamics.model import STATE_SIZE, SwimModel
+from fishtail_swim.dynamics.integrator import Trajectory, simulate
+from fishtail_swim.dynamics.model import SwimModel
 from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 
 #: Beats the figures of a run are taken over (the last whole ones).
 SUMMARY_BEATS = 2
-# Steps between progress reports: rare enough to cost nothing, often enough for 0.1 s updates.
-_STEPS_PER_REPORT = 200
 
 
 class TimeRun(NamedTuple):
@@ -65,23 +63,17 @@ def run_from_rest(
         raise SwimInputError(f"a run needs a positive step and steps, got {step_s!r}, {steps}")
     drive = EngineTailDrive(swimmer.tail, constant_carrier_speed(speeds))
     model = SwimModel(swimmer.fish, drive, hold_sway_yaw=hold_sway_yaw)
-    state = np.zeros((speeds.size, STATE_SIZE))
-    states = np.empty((steps + 1, speeds.size, STATE_SIZE))
-    states[0] = state
-    for step in range(steps):
-        # Times from the step count, not by accumulation: the beat ends stay on samples.
-        state = rk4_step(model.derivatives, step * step_s, state, step_s)
-        states[step + 1] = state
-        if progress is not None and step % _STEPS_PER_REPORT == 0:
-            progress.update(step)
-            if not np.isfinite(state).all():
-                break
-    if progress is not None:
-        progress.finish()
-    if not np.isfinite(states).all():
-        raise SwimInputError("the integration diverged (non-finite state): use more steps per beat")
-    time_s = np.arange(steps + 1, dtype=np.float64) * step_s
-    return TimeRun(model, drive, speeds, Trajectory(time_s, states))
+    report = None if progress is None else progress.update
+    try:
+        trajectory = simulate(model, speeds.size, step_s, steps, progress=report)
+    except SwimInputError:
+        raise SwimInputError(
+            "the integration diverged (non-finite state): use more steps per beat"
+        ) from None
+    finally:
+        if progress is not None:
+            progress.finish()
+    return TimeRun(model, drive, speeds, trajectory)
 
 
 def whole_beats(run: TimeRun) -> int:
