@@ -41,9 +41,10 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_kinematics.engine.mechanisms import Tail
+from fishtail_swim.dynamics.errors import SwimInputError
 from fishtail_swim.dynamics.figures import tail_power
 from fishtail_swim.dynamics.fish import FishParameters, FloatArray
-from fishtail_swim.dynamics.integrator import rk4_step
+from fishtail_swim.dynamics.integrator import Stepper
 from fishtail_swim.dynamics.model import PSI, STATE_SIZE, SwimModel, X, Y
 from fishtail_swim.dynamics.tail_drive import EngineTailDrive
 
@@ -175,6 +176,7 @@ class SwimFollower:
         self.max_interval_s = max_interval_s
         self.carrier = LinearCarrier()
         self.model = SwimModel(fish, EngineTailDrive(tail, self.carrier))
+        self._stepper = Stepper(self.model, 1)
         self._body_length_m = float(fish.body_length_m)
         #: (1, 6): X, Y, psi in world; u, v, r in the body frame.
         self.state: FloatArray = np.zeros((1, STATE_SIZE))
@@ -295,10 +297,16 @@ class SwimFollower:
 
     def _tail_figures_now(self, time_s: float, state: FloatArray) -> tuple[float, float, float]:
         """Thrust F_T,x, tail power and the tip's body-frame y at ``time_s`` for ``state``."""
-        flow, _, tail = self.model.forces(time_s, state)
-        force = flow.force
-        power = tail_power(force, tail)
-        return float(force.x.item()), float(power.item()), float(tail.tip_y.item())
+        thrust, power, tip_y = self._tail_figures(np.array([time_s]), state)
+        return float(thrust[0]), float(power[0]), float(tip_y[0])
+
+    def _tail_figures(
+        self, time_s: FloatArray, states: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Thrust, tail power and tip y at each of ``time_s`` (K,) for ``states`` (K, 1, 6)."""
+        flow, _, tail = self.model.forces(time_s[:, None], states)
+        power = tail_power(flow.force, tail)
+        return flow.force.x[:, 0], power[:, 0], np.broadcast_to(tail.tip_y, power.shape)[:, 0]
 
     def _integrate(
         self, state: FloatArray, beat: _BeatAccumulator | None, start_s: float, end_s: float
@@ -310,11 +318,17 @@ class SwimFollower:
         # A step a rounding error longer than max_step_s (stamps are whole nanoseconds) is one step.
         steps = max(1, math.ceil(length / self.max_step_s - 1e-6))
         step = length / steps
-        derivatives = self.model.derivatives
-        for index in range(steps):
-            time = start_s + index * step
-            state = rk4_step(derivatives, time, state, step)
-            if beat is not None:
-                end = end_s if index == steps - 1 else time + step
-                beat.add(end, *self._tail_figures_now(end, state))
+        states = np.empty((steps + 1, 1, STATE_SIZE))
+        states[0] = state
+        state = self._stepper.advance(state, start_s, 0, steps, step, 1, states)
+        if not np.isfinite(state).all():
+            raise SwimInputError(
+                f"the integration diverged (non-finite state) from t = {start_s:.6f} s"
+            )
+        if beat is not None:
+            ends: FloatArray = start_s + np.arange(1, steps + 1, dtype=np.float64) * step
+            ends[-1] = end_s
+            figures = self._tail_figures(ends, states[1:])
+            for end, thrust, power, tip_y in zip(ends, *figures, strict=True):
+                beat.add(float(end), float(thrust), float(power), float(tip_y))
         return state, steps

@@ -151,6 +151,7 @@ def rk4_block(
     model: SwimModel,
     parameters: FloatArray,
     state: FloatArray,
+    start_s: float,
     first_step: int,
     steps: int,
     step_s: float,
@@ -159,13 +160,14 @@ def rk4_block(
 ) -> None:
     """Advance ``state`` (N, 6) in place by ``steps`` RK4 steps from step ``first_step``.
 
-    Step k runs from t = k h to (k + 1) h; the tail is solved for the block's 2 steps + 1 stage
-    times (t, t + h/2, t + h for each step) before the loop. After global step j, the state is
-    written to ``records[j // record_every]`` whenever ``record_every`` divides j.
+    Step k runs from t = start_s + k h to start_s + (k + 1) h; the tail is solved for the block's
+    2 steps + 1 stage times (t, t + h/2, t + h for each step) before the loop. After step j the
+    state is written to ``records[j // record_every]`` whenever ``record_every`` divides j.
     """
     fish_count = state.shape[0]
     # Stage times from the step count (no accumulation): the same times the numpy loop uses.
-    stage_time_s = np.arange(2 * first_step, 2 * (first_step + steps) + 1) * (0.5 * step_s)
+    stage_index = np.arange(2 * first_step, 2 * (first_step + steps) + 1)
+    stage_time_s = start_s + stage_index * (0.5 * step_s)
     tail = tail_samples(model, stage_time_s, fish_count)
     assert state.shape == (fish_count, STATE_SIZE)
     _rk4_steps(

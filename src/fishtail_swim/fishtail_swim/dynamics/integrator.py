@@ -95,12 +95,11 @@ def simulate(
     records = steps // record_every + 1
     states = np.empty((records, fish_count, STATE_SIZE))
     states[0] = state
-    advance = _compiled_block if fused.AVAILABLE else _numpy_block
+    stepper = Stepper(model, fish_count)
     block = fused.block_steps(fish_count)
-    parameters = fused.parameter_table(model, fish_count) if fused.AVAILABLE else None
     for first in range(0, steps, block):
         count = min(block, steps - first)
-        state = advance(model, parameters, state, first, count, step_s, record_every, states)
+        state = stepper.advance(state, 0.0, first, count, step_s, record_every, states)
         if not np.isfinite(state).all():
             break
         if progress is not None:
@@ -112,33 +111,44 @@ def simulate(
     return Trajectory(times, states)
 
 
-def _compiled_block(
-    model: SwimModel,
-    parameters: FloatArray | None,
-    state: FloatArray,
-    first: int,
-    steps: int,
-    step_s: float,
-    record_every: int,
-    records: FloatArray,
-) -> FloatArray:
-    assert parameters is not None
-    fused.rk4_block(model, parameters, state, first, steps, step_s, record_every, records)
-    return state
+class Stepper:
+    """RK4 steps of a model's batch of fish: the compiled loop where numba is installed, else numpy.
 
+    Both evaluate the same formulas at the same stage times and agree to rounding.
+    """
 
-def _numpy_block(
-    model: SwimModel,
-    parameters: FloatArray | None,
-    state: FloatArray,
-    first: int,
-    steps: int,
-    step_s: float,
-    record_every: int,
-    records: FloatArray,
-) -> FloatArray:
-    for step in range(first + 1, first + steps + 1):
-        state = rk4_step(model.derivatives, (step - 1) * step_s, state, step_s)
-        if step % record_every == 0:
-            records[step // record_every] = state
-    return state
+    def __init__(self, model: SwimModel, fish_count: int) -> None:
+        """Step ``fish_count`` fish of ``model``."""
+        self.model = model
+        self.compiled = fused.AVAILABLE
+        self._parameters = fused.parameter_table(model, fish_count) if self.compiled else None
+
+    def advance(
+        self,
+        state: FloatArray,
+        start_s: float,
+        first_step: int,
+        steps: int,
+        step_s: float,
+        record_every: int,
+        records: FloatArray,
+    ) -> FloatArray:
+        """``state`` (N, 6) after steps ``first_step`` to ``first_step + steps - 1``.
+
+        Step k runs from start_s + k h to start_s + (k + 1) h. After step j (counted from 0 at
+        start_s) the state goes to ``records[j // record_every]`` when ``record_every`` divides
+        j. ``state`` itself is left as it was.
+        """
+        if self._parameters is not None:
+            advanced = np.array(state, dtype=float)
+            fused.rk4_block(
+                self.model, self._parameters, advanced, start_s, first_step, steps, step_s,
+                record_every, records,
+            )  # fmt: skip
+            return advanced
+        derivatives = self.model.derivatives
+        for step in range(first_step + 1, first_step + steps + 1):
+            state = rk4_step(derivatives, start_s + (step - 1) * step_s, state, step_s)
+            if step % record_every == 0:
+                records[step // record_every] = state
+        return state
