@@ -2,7 +2,8 @@
 
 Plain Python (no rclpy), so that the recorder, the offline analysis and the tests name topics the
 way the nodes do. Topic names are relative (a namespace moves the whole suite) except
-``/diagnostics``; :mod:`fishtail_common.ros` turns a :class:`QosKind` into an rclpy profile.
+``/diagnostics``, ``/tf`` and ``/tf_static``, whose absolute names are ROS conventions;
+:mod:`fishtail_common.ros` turns a :class:`QosKind` into an rclpy profile.
 
 >>> TAIL_STATE.name, TAIL_STATE.type
 ('tail/state', 'fishtail_msgs/msg/TailState')
@@ -107,8 +108,25 @@ FISH_SWIMMING = Topic(
 DIAGNOSTICS = Topic(
     "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosKind.RELIABLE, "every node's health"
 )
+#: tf2's topics, with the reliability and durability of tf2's broadcasters (a static transform is
+#: sent once and kept for late subscribers). Absolute, as every tf2 user expects them: a namespaced
+#: simulator still broadcasts there, unless started with ``-r /tf:=tf -r /tf_static:=tf_static``.
+TF = Topic(
+    "/tf",
+    "tf2_msgs/msg/TFMessage",
+    QosKind.RELIABLE,
+    "transforms that move: the simulated fish's world -> base_link, per carrier sample",
+)
+TF_STATIC = Topic(
+    "/tf_static",
+    "tf2_msgs/msg/TFMessage",
+    QosKind.LATCHED,
+    "fixed transforms: base_link -> tail_mechanism of the simulated fish",
+)
 
 #: Every topic the suite publishes or commands, in data-flow order (what the recorder records).
+#: /tf and /tf_static are not among them: tf2_msgs is not always installed (no wheel of it), and
+#: the transforms follow from fish/odom and the fish's parameters.
 SUITE_TOPICS: tuple[Topic, ...] = (
     MOTOR_CMD_SPEED,
     MOTOR_JOINT_STATE,

@@ -10,6 +10,11 @@ Topics (relative names):
                              reliable, transient local, depth 1 (a late subscriber gets the last)
   pub ``fish/markers``       visualization_msgs/MarkerArray for RViz (body outline, path, tail) in
                              ``world``, at ``markers_rate_hz`` (0 = off)
+  pub ``/tf``                tf2_msgs/TFMessage ``world`` -> ``base_link`` with each odometry
+                             message (its stamp and pose), while ``publish_tf`` (default true)
+  pub ``/tf_static``         tf2_msgs/TFMessage ``base_link`` -> ``tail_mechanism`` once, transient
+                             local (:mod:`fishtail_swim.frames`); both absolute, as tf2's, and only
+                             where tf2_msgs is installed
   pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray: STALE without input; WARN when
                              samples were dropped or the input has gaps or a low rate; else OK,
                              with the fish's speed, heading and position among the values
@@ -30,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
+from typing import TYPE_CHECKING
 
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
@@ -75,12 +81,17 @@ from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
 from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
 from fishtail_swim.follower import BeatFigures, StampNotIncreasingError, SwimFollower
+from fishtail_swim.frames import yaw_quaternion
 from fishtail_swim.nodes.fish_markers import (
     MARKER_PARAMETERS,
     MARKERS_PATH_LENGTH,
     MARKERS_RATE,
     FishMarkerPublisher,
 )
+from fishtail_swim.nodes.fish_tf import PUBLISH_TF, FishTfBroadcaster, tf_message_type
+
+if TYPE_CHECKING:
+    from builtin_interfaces.msg import Time
 
 INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -112,6 +123,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = _read_only(
         STALE_TIMEOUT,
         *GUARD_PARAMETERS,
         *MARKER_PARAMETERS,
+        PUBLISH_TF,
     )
 )
 
@@ -189,10 +201,21 @@ class SimNode(SuiteNodeBase):
             float(values[MARKERS_RATE.name]),
             int(values[MARKERS_PATH_LENGTH.name]),
         )
+        self.tf: FishTfBroadcaster | None = None
+        tf_type = tf_message_type() if values[PUBLISH_TF.name] else None
+        if tf_type is not None:
+            self.tf = FishTfBroadcaster(self, tf_type, float(fish.tail_origin_offset_m))
+            self.tf_state = "on"
+        elif values[PUBLISH_TF.name]:
+            # Where ROS 2 comes from the wheels (they have no tf2_msgs) this is the normal case,
+            # so it is said in the start-up line and the diagnostics, not warned.
+            self.tf_state = "off: tf2_msgs is not installed"
+        else:
+            self.tf_state = f"off: {PUBLISH_TF.name} is false"
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.get_logger().info(
             f"swimming simulator up: {tail.name} tail, body {float(fish.body_length_m):g} m, "
-            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms"
+            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms; tf {self.tf_state}"
         )
 
     def _reject(self, reason: str, text: str) -> None:
@@ -246,22 +269,22 @@ class SimNode(SuiteNodeBase):
                 end_ns = follower.first_stamp_ns + round(beat.end_time_s * 1e9)
                 self.figures_publisher.publish(figures_message(beat, end_ns))
 
-    def publish_odometry(self, stamp: object) -> None:
-        """Fill and publish fish/odom from the follower's state."""
+    def publish_odometry(self, stamp: Time) -> None:
+        """Fill and publish fish/odom from the follower's state, and its pose on /tf."""
         row = self.follower.state[0]
         odom = self.odom
         odom.header.stamp = stamp
         pose = odom.pose.pose
         pose.position.x = float(row[X])
         pose.position.y = float(row[Y])
-        half_yaw = 0.5 * float(row[PSI])
-        pose.orientation.z = math.sin(half_yaw)
-        pose.orientation.w = math.cos(half_yaw)
+        _, _, pose.orientation.z, pose.orientation.w = yaw_quaternion(float(row[PSI]))
         twist = odom.twist.twist
         twist.linear.x = float(row[SURGE])
         twist.linear.y = float(row[SWAY])
         twist.angular.z = float(row[YAW_RATE])
         self.odom_publisher.publish(odom)
+        if self.tf is not None:
+            self.tf.publish(stamp, pose)
 
     def _on_diagnostics(self) -> None:
         now_ns = self.get_clock().now().nanoseconds
@@ -287,6 +310,7 @@ class SimNode(SuiteNodeBase):
             "sub_steps": str(self.follower.sub_steps),
             "restarts": str(self.follower.restarts),
             "received": str(self.received),
+            "tf": self.tf_state,
             **input_values,
         }
         self.diagnostics_publisher.publish(

@@ -1,0 +1,74 @@
+"""The simulated fish's tf frames in plain numbers: world -> base_link -> tail_mechanism.
+
+* ``world`` -> ``base_link``: the centre of mass C at (X, Y, 0), turned by the yaw ψ about z; it
+  moves, one transform per carrier sample (the pose of ``fish/odom``).
+* ``base_link`` -> ``tail_mechanism``: fixed. O, the ring-gear centre, sits on the body axis at
+  x = -ℓ_O (``tail_origin_offset_m``); the tail frame's x points back, its y left and its z down,
+  which is the body frame turned by π about its y axis: the quaternion (0, 1, 0, 0).
+
+A transform maps a point given in the child frame into the parent frame (tf2's convention), so a
+tail point (x_t, y_t, 0) lands at (-ℓ_O - x_t, y_t, 0) in the body, as ``docs/swimming-dynamics.md``
+states. Quaternions are (x, y, z, w), geometry_msgs' order. Plain Python: the node turns these into
+messages.
+
+>>> tail_in_body(0.05).apply((0.1, 0.02, 0.0))
+(-0.15000000000000002, 0.02, 0.0)
+>>> yaw_quaternion(0.0)
+(0.0, 0.0, 0.0, 1.0)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from fishtail_common.interface import BODY_FRAME, TAIL_FRAME, WORLD_FRAME
+
+Vector = tuple[float, float, float]
+#: A unit quaternion (x, y, z, w).
+Quaternion = tuple[float, float, float, float]
+
+#: The tail frame's orientation in the body: a half turn about the body's y axis.
+TAIL_IN_BODY_ROTATION: Quaternion = (0.0, 1.0, 0.0, 0.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameTransform:
+    """The pose of frame ``child`` in frame ``parent``: rotate by ``rotation``, then translate."""
+
+    parent: str
+    child: str
+    translation: Vector
+    rotation: Quaternion
+
+    def apply(self, point: Vector) -> Vector:
+        """``point``, given in the child frame, in the parent frame."""
+        qx, qy, qz, qw = self.rotation
+        px, py, pz = point
+        # v' = v + 2w (u x v) + 2 u x (u x v), u the quaternion's vector part: no matrix needed.
+        cx, cy, cz = qy * pz - qz * py, qz * px - qx * pz, qx * py - qy * px
+        dx, dy, dz = qy * cz - qz * cy, qz * cx - qx * cz, qx * cy - qy * cx
+        tx, ty, tz = self.translation
+        return (
+            px + 2.0 * (qw * cx + dx) + tx,
+            py + 2.0 * (qw * cy + dy) + ty,
+            pz + 2.0 * (qw * cz + dz) + tz,
+        )
+
+
+def yaw_quaternion(psi: float) -> Quaternion:
+    """The rotation by ``psi`` (rad, counter-clockwise) about z: (0, 0, sin ψ/2, cos ψ/2)."""
+    half = 0.5 * psi
+    return (0.0, 0.0, math.sin(half), math.cos(half))
+
+
+def body_in_world(x: float, y: float, psi: float) -> FrameTransform:
+    """``world`` -> ``base_link`` of a fish with its centre of mass at (x, y) and yaw ``psi``."""
+    return FrameTransform(WORLD_FRAME, BODY_FRAME, (x, y, 0.0), yaw_quaternion(psi))
+
+
+def tail_in_body(tail_origin_offset_m: float) -> FrameTransform:
+    """``base_link`` -> ``tail_mechanism``: O at x = -``tail_origin_offset_m``, π about y."""
+    return FrameTransform(
+        BODY_FRAME, TAIL_FRAME, (-tail_origin_offset_m, 0.0, 0.0), TAIL_IN_BODY_ROTATION
+    )
