@@ -21,6 +21,13 @@ from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FloatArray
 from fishtail_swim.offline import run_output
+from fishtail_swim.offline.fit import fish_file_text, fit_drag, read_measurements, write_fit_report
+from fishtail_swim.offline.fit_free_body import (
+    FREE_BODY_BEATS,
+    FREE_BODY_STEPS_PER_BEAT,
+    RunSettings,
+    fit_drag_and_yaw_damping,
+)
 from fishtail_swim.offline.inputs import (
     PROGRAM,
     SwimParser,
@@ -33,7 +40,7 @@ from fishtail_swim.offline.inputs import (
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
 from fishtail_swim.offline.tables import Column, write_table
-from fishtail_swim.offline.time_run import run_figures, run_from_rest
+from fishtail_swim.offline.time_run import SUMMARY_BEATS, run_figures, run_from_rest
 
 DEFAULT_SPEEDS = "2,4,8,12,16"
 #: Most carrier speeds one steady table computes (one batch).
@@ -121,7 +128,45 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     simulate.add_argument("--output", type=Path, required=True, help="CSV file to write")
     simulate.add_argument("--figures", type=Path, metavar="DIR", help="write PNG figures here")
+    _add_fit_parser(commands, swimmer)
     return parser
+
+
+def _beats(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not SUMMARY_BEATS + 1 <= value <= 100_000:
+        raise argparse.ArgumentTypeError(
+            f"must be between {SUMMARY_BEATS + 1} and 100000, got {value}"
+        )
+    return value
+
+
+def _add_fit_parser(commands: argparse._SubParsersAction[SwimParser], swimmer: SwimParser) -> None:
+    fit = commands.add_parser(
+        "fit", parents=[swimmer],
+        help="fit C_D (and K_D, with yaw rates) to measured cruising speeds; write a fish file",
+    )  # fmt: skip
+    fit.add_argument(
+        "measurements", type=Path, metavar="MEASUREMENTS.csv",
+        help="CSV with a header: carrier_speed_rad_s,speed_m_s[,yaw_rate_rad_s] (# comments)",
+    )  # fmt: skip
+    fit.add_argument(
+        "--output", type=Path, metavar="FILE",
+        help="write the fitted fish as a parameter file (for --fish and the simulator node)",
+    )  # fmt: skip
+    fit.add_argument("--csv", action="store_true", help="CSV instead of an aligned table")
+    free = fit.add_argument_group("free-body runs (only with yaw rates)")
+    free.add_argument(
+        "--beats", type=_beats, default=FREE_BODY_BEATS,
+        help=f"beats of each run from rest ({FREE_BODY_BEATS})",
+    )  # fmt: skip
+    free.add_argument(
+        "--steps-per-beat", type=_steps_per_beat, default=FREE_BODY_STEPS_PER_BEAT,
+        help=f"RK4 steps per tail beat ({FREE_BODY_STEPS_PER_BEAT})",
+    )  # fmt: skip
 
 
 def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
@@ -202,6 +247,31 @@ def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
         print(f"wrote {path}", file=out)
 
 
+def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Fit C_D (and K_D with yaw rates), print the rows and values, write the fish file."""
+    measurements = read_measurements(arguments.measurements)
+    swimmer = swimmer_from_arguments(arguments)
+    output: Path | None = arguments.output
+    if output is not None and not output.parent.is_dir():
+        raise UsageError(f"cannot write {output}: no directory {output.parent}")
+    if measurements.yaw_rate_rad_s is None:
+        result = fit_drag(swimmer, measurements)
+    else:
+        settings = RunSettings(arguments.beats, arguments.steps_per_beat)
+        result = fit_drag_and_yaw_damping(swimmer, measurements, settings)
+    write_fit_report(result, measurements, out, arguments.csv)
+    # CSV output stays parseable: the notes go to stderr.
+    notes = sys.stderr if arguments.csv else out
+    for warning in result.warnings:
+        print(f"{PROGRAM}: warning: {warning}", file=sys.stderr)
+    if output is not None:
+        try:
+            output.write_text(fish_file_text(result, str(arguments.measurements)), "utf-8")
+        except OSError as error:
+            raise UsageError(f"cannot write {output}: {error.strerror or error}") from None
+        print(f"wrote {output}", file=notes)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``fishtail-swim``."""
     parser = build_parser()
@@ -209,6 +279,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command: Callable[[argparse.Namespace, TextIO], None] = {
         "steady": run_steady,
         "simulate": run_simulate,
+        "fit": run_fit,
     }[arguments.command]
     try:
         command(arguments, sys.stdout)
