@@ -98,9 +98,10 @@ DIAGNOSTICS_PERIOD_S = 1.0
 
 MAX_STEP = ParameterSpec(
     "max_step_sec",
-    # One sub-step per sample at the driver's default 200 Hz: 63 steps per beat even at the
-    # driver's top speed of 20 rad/s, more than RK4 needs here (the library's checks use 16-48).
-    0.005,
+    # One sub-step per sample at the driver's default 200 Hz, whose intervals jitter around 5 ms
+    # (a 5 ms bound cut every slightly late interval into two), and down to 100 Hz; 31 steps
+    # per beat even at the driver's top speed of 20 rad/s, within the 16-48 the checks use.
+    0.01,
     "longest RK4 sub-step between two carrier samples (the interval is cut into equal steps)",
     "s",
     1e-5,
