@@ -7,7 +7,7 @@ point a tick, so the path covers ``markers_path_length / markers_rate_hz`` secon
 anybody subscribes, one MarkerArray is published:
 
 * ``body``: the hull's outline, an ellipse of the body's length and diameter round C, turned by
-  the yaw (the spheroid cut in the plane of swimming);
+  the yaw (the spheroid cut in the plane of swimming; :mod:`fishtail_swim.dynamics.outline`);
 * ``path``: C's recent positions;
 * ``tail``: the ring-gear centre O and the tail tip T at the latest carrier angle, from the
   kinematics engine, carried from the tail frame (x back, y left) into the body and the world.
@@ -17,11 +17,9 @@ The first array after start begins with a DELETEALL, so markers of an earlier ru
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from typing import TYPE_CHECKING
 
-import numpy as np
 from geometry_msgs.msg import Point
 from rclpy.node import Node
 from rclpy.timer import Timer
@@ -34,6 +32,7 @@ from fishtail_common.ros import qos_profile
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_swim.dynamics.fish import FloatArray
 from fishtail_swim.dynamics.model import PSI, X, Y
+from fishtail_swim.dynamics.outline import body_outline, body_to_world, tail_to_body
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time
@@ -51,8 +50,6 @@ MARKERS_PATH_LENGTH = ParameterSpec(
     read_only=True,
 )
 MARKER_PARAMETERS = (MARKERS_RATE, MARKERS_PATH_LENGTH)
-#: Points of the body's outline.
-OUTLINE_POINTS = 37
 _LINE_WIDTH_M = 0.01
 
 
@@ -86,11 +83,8 @@ class FishMarkerPublisher:
         """Create the publisher and, unless ``rate_hz`` is 0, the timer."""
         self.tail = tail
         self.tail_origin_offset_m = tail_origin_offset_m
-        angles = np.linspace(0.0, 2.0 * math.pi, OUTLINE_POINTS)
-        #: The outline in the body frame, (OUTLINE_POINTS, 2).
-        self.outline = np.column_stack(
-            (0.5 * body_length_m * np.cos(angles), 0.5 * body_diameter_m * np.sin(angles))
-        )
+        #: The outline in the body frame, (outline.OUTLINE_POINTS, 2).
+        self.outline = body_outline(body_length_m, body_diameter_m)
         self.publisher = node.create_publisher(
             MarkerArray, FISH_MARKERS.name, qos_profile(FISH_MARKERS)
         )
@@ -123,19 +117,15 @@ class FishMarkerPublisher:
     def build(self, state: FloatArray, angle: float, stamp: Time) -> MarkerArray:
         """The MarkerArray of the fish in ``state`` with its tail at carrier ``angle``."""
         x, y, psi = float(state[0, X]), float(state[0, Y]), float(state[0, PSI])
-        cos_psi, sin_psi = math.cos(psi), math.sin(psi)
 
         def world(points: FloatArray) -> list[Point]:
-            world_x = x + cos_psi * points[:, 0] - sin_psi * points[:, 1]
-            world_y = y + sin_psi * points[:, 0] + cos_psi * points[:, 1]
-            return [
-                Point(x=px, y=py) for px, py in zip(world_x.tolist(), world_y.tolist(), strict=True)
-            ]
+            return [Point(x=px, y=py) for px, py in body_to_world(points, x, y, psi).tolist()]
 
         tail = self.tail.solve(angle, 0.0)
-        origin = -self.tail_origin_offset_m
-        # Tail frame (x back, y left) to body frame: (x_t, y_t) -> (-l_O - x_t, y_t).
-        tail_points = np.array([[origin, 0.0], [origin - float(tail.tip_x), float(tail.tip_y)]])
+        # O and the tip T, from the tail frame into the body.
+        tail_points = tail_to_body(
+            [[0.0, 0.0], [float(tail.tip_x), float(tail.tip_y)]], self.tail_origin_offset_m
+        )
         self._body.points = world(self.outline)
         self._tail.points = world(tail_points)
         self._path.points = [Point(x=px, y=py) for px, py in self.path]
