@@ -1,4 +1,4 @@
-"""``fishtail-swim``: steady swimming over carrier speeds, and time-stepped runs to CSV and figures.
+"""``fishtail-swim``: steady swimming over carrier speeds, time-stepped runs to CSV, figures, GIF.
 
 The tail comes from a kinematics parameter file (``--config config/oscillatory.yaml``), the fish
 from ``--fish`` (``config/fish.yaml``); flags named after the parameters override both. Bad input
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -20,7 +21,7 @@ from fishtail_common.parameters import ParameterValueError
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.offline import run_output
+from fishtail_swim.offline import animate, run_output
 from fishtail_swim.offline.fit import fish_file_text, fit_drag, read_measurements, write_fit_report
 from fishtail_swim.offline.fit_free_body import (
     FREE_BODY_BEATS,
@@ -91,6 +92,15 @@ def _steps_per_beat(text: str) -> int:
     return value
 
 
+def _fps(text: str) -> float:
+    value = number(text)
+    if not 0.0 < value <= animate.MAX_FPS:
+        raise argparse.ArgumentTypeError(
+            f"frames per second must be in (0, {animate.MAX_FPS:g}], got {text}"
+        )
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests)."""
     swimmer = swimmer_arguments()
@@ -128,6 +138,24 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     simulate.add_argument("--output", type=Path, required=True, help="CSV file to write")
     simulate.add_argument("--figures", type=Path, metavar="DIR", help="write PNG figures here")
+    animation = commands.add_parser(
+        "animate", parents=[swimmer],
+        help="a time-stepped run from rest as a GIF: top view of the fish with its linkage",
+    )  # fmt: skip
+    animation.add_argument("--speed", type=_carrier_speed, required=True, help="carrier rad/s")
+    animation.add_argument(
+        "--duration", type=positive_number, required=True, help="simulated seconds"
+    )
+    animation.add_argument("--output", type=Path, required=True, help="GIF file to write")
+    animation.add_argument(
+        "--fps", type=_fps, default=20.0,
+        help=f"frames per simulated second, at most {animate.MAX_FPS:g} (20); the GIF plays in "
+        "real time",
+    )  # fmt: skip
+    animation.add_argument(
+        "--steps-per-beat", type=_steps_per_beat, default=32,
+        help="RK4 steps per tail beat (32)",
+    )  # fmt: skip
     _add_fit_parser(commands, swimmer)
     return parser
 
@@ -215,9 +243,8 @@ def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
     )
 
 
-def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Step the fish from rest, write the CSV (and figures), print the summary."""
-    swimmer = swimmer_from_arguments(arguments)
+def _run_steps(arguments: argparse.Namespace) -> tuple[float, int]:
+    """The step and the number of steps of a run of --duration; at least one beat."""
     period = 2.0 * math.pi / arguments.speed
     step = period / arguments.steps_per_beat
     steps = math.ceil(arguments.duration / step - 1e-9)
@@ -226,6 +253,13 @@ def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
             f"--duration {arguments.duration:g} s is shorter than one beat ({period:.6g} s at "
             f"{arguments.speed:g} rad/s)"
         )
+    return step, steps
+
+
+def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Step the fish from rest, write the CSV (and figures), print the summary."""
+    swimmer = swimmer_from_arguments(arguments)
+    step, steps = _run_steps(arguments)
     directory: Path | None = arguments.figures
     if directory is not None:
         try:
@@ -245,6 +279,50 @@ def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
     run_output.print_summary(run, figures, swimmer.fish, out)
     for path in [arguments.output, *written]:
         print(f"wrote {path}", file=out)
+
+
+def _check_gif_output(path: Path) -> None:
+    # Said before the run rather than after it; Pillow picks the format by the file's suffix.
+    if path.suffix.lower() != ".gif":
+        raise UsageError(f"--output {path}: the animation is a GIF, name it *.gif")
+    if path.is_dir():
+        raise UsageError(f"cannot write {path}: it is a directory")
+    directory = path.parent
+    if not directory.is_dir():
+        raise UsageError(f"cannot write {path}: no directory {directory}")
+    if not os.access(directory, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise UsageError(f"cannot write {path}: permission denied")
+
+
+def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Step the fish from rest and write the run as a GIF, one frame every 1/fps s."""
+    swimmer = swimmer_from_arguments(arguments)
+    step, steps = _run_steps(arguments)
+    times = animate.frame_times(arguments.duration, arguments.fps)
+    if not 2 <= times.size <= animate.MAX_FRAMES:
+        raise UsageError(
+            f"--duration {arguments.duration:g} s at --fps {arguments.fps:g}: frame count "
+            f"{times.size}, but a GIF takes 2 to {animate.MAX_FRAMES} frames (change the duration "
+            "or the fps)"
+        )
+    _check_gif_output(arguments.output)
+    speed = float(arguments.speed)
+    run = run_from_rest(
+        swimmer, np.array([speed]), step, steps, Progress("animate (stepping)", steps)
+    )
+    frames = animate.fish_frames(
+        run.trajectory.time_s, run.trajectory.state[:, 0], swimmer.tail, swimmer.fish, speed,
+        times,
+    )  # fmt: skip
+    title = f"{swimmer.tail.name} tail, carrier {speed:g} rad/s"
+    try:
+        animate.write_gif(
+            frames, arguments.output, arguments.fps, title,
+            Progress("animate (drawing)", times.size),
+        )  # fmt: skip
+    except OSError as error:
+        raise UsageError(f"cannot write {arguments.output}: {error.strerror or error}") from None
+    print(f"wrote {arguments.output} ({times.size} frames)", file=out)
 
 
 def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
@@ -279,6 +357,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command: Callable[[argparse.Namespace, TextIO], None] = {
         "steady": run_steady,
         "simulate": run_simulate,
+        "animate": run_animate,
         "fit": run_fit,
     }[arguments.command]
     try:
