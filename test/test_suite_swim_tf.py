@@ -3,13 +3,15 @@
 Where tf2_msgs is installed (every ROS 2 install; the wheels have none), the simulator broadcasts
 world -> base_link on /tf with each fish/odom message and base_link -> tail_mechanism on
 /tf_static; the tests check both against the odometry and the fish's parameters. Where it is not,
-the simulator runs without tf and says so; that is checked instead.
+the simulator runs without tf and says so; that is checked everywhere, with tf2_msgs hidden from
+the simulator's process where it is installed.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import math
+import os
 
 import pytest
 import yaml
@@ -144,10 +146,20 @@ def test_publish_tf_false_leaves_tf_alone(start_node, ros, fish_parameters):
     assert ros.node.count_publishers(TF_STATIC.name) == 0
 
 
-@pytest.mark.skipif(HAVE_TF2_MSGS, reason="tf2_msgs is installed: the simulator broadcasts tf")
 def test_without_tf2_msgs_the_simulator_runs_and_says_it_has_no_tf(
-    start_node, ros, fish_parameters
+    start_node, ros, fish_parameters, tmp_path, monkeypatch
 ):
+    if HAVE_TF2_MSGS:
+        # First on the simulator's path: a tf2_msgs whose import fails as a missing one does.
+        hidden = tmp_path / "no_tf2_msgs"
+        (hidden / "tf2_msgs").mkdir(parents=True)
+        (hidden / "tf2_msgs" / "__init__.py").write_text(
+            "raise ModuleNotFoundError(\"No module named 'tf2_msgs'\", name='tf2_msgs')\n",
+            encoding="utf-8",
+        )
+        monkeypatch.setenv(
+            "PYTHONPATH", os.pathsep.join(filter(None, [str(hidden), os.environ.get("PYTHONPATH")]))
+        )
     diagnostics = ros.record_diagnostics()
     process = start_node(SIM_MODULE, name="swim", params_file=fish_parameters)
     values = wait_for_swim_values(ros, diagnostics)

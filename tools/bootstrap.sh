@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up the fishtail workspace from a fresh clone: .venv with the pinned ROS 2 Jazzy wheels, the
-# wheel CMake path fix, and `colcon build --symlink-install`. Idempotent; a second run with
-# nothing changed takes about a second (stamps keyed on hashes of what each step depends on).
+# wheel CMake path fix, tf2_msgs (which the wheels lack) into .venv/interfaces, and
+# `colcon build --symlink-install`. Idempotent; a second run with nothing changed takes about a
+# second (stamps keyed on hashes of what each step depends on).
 #
 # Usage: tools/bootstrap.sh [--force-build]
 #   --force-build   run colcon build even if the sources' build stamp is current
@@ -11,7 +12,7 @@
 #                                      into .venv/ros2-tools when present
 #
 # Output is one line per step with its elapsed time; a failing step prints the tail of its log.
-# Logs: log/bootstrap/<step>.log (colcon's own logs: log/latest_build).
+# Logs: log/bootstrap/<step>.log (colcon's own logs: log/latest_build, log/interfaces/latest_build).
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -25,7 +26,7 @@ force_build=0
 for arg in "$@"; do
   case $arg in
     --force-build) force_build=1 ;;
-    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,15p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bootstrap: unknown argument: $arg" >&2; exit 2 ;;
   esac
 done
@@ -56,9 +57,12 @@ step() {
     echo "bootstrap: $name FAILED (exit $rc) after $(elapsed "$t0") s; last lines of" \
       "log/bootstrap/$name.log:" >&2
     tail -n 80 "$LOG_DIR/$name.log" >&2
-    if [ "$name" = colcon ]; then
-      echo "bootstrap: full package output: log/latest_build/<package>/stdout_stderr.log" >&2
-    fi
+    local full=
+    case $name in
+      colcon) full='log/latest_build/<package>/stdout_stderr.log' ;;
+      tf2_msgs) full=log/interfaces/latest_build/tf2_msgs/stdout_stderr.log ;;
+    esac
+    if [ -n "$full" ]; then echo "bootstrap: full package output: $full" >&2; fi
     exit "$rc"
   fi
   printf 'bootstrap: %-9s %6s s\n' "$name" "$(elapsed "$t0")"
@@ -128,7 +132,54 @@ else
   skip ros2tools "skipped: no $UPSTREAM/install-ros2-tools.sh (set FISHTAIL_ROS2_UPSTREAM)"
 fi
 
-# --- 4. colcon build -----------------------------------------------------------------------------
+# --- 4. tf2_msgs, which the wheels lack -----------------------------------------------------------
+# The simulator publishes /tf and /tf_static only where tf2_msgs imports. tools/interfaces/tf2_msgs
+# has its TFMessage with the real definition (so the real type hash, which RViz on a ROS machine
+# needs); it goes into its own prefix, which tools/env.sh sources as an underlay. A tf2_msgs that
+# the user put into the venv itself wins: ours is then neither built nor kept.
+TF2_SRC=tools/interfaces/tf2_msgs
+TF2_PREFIX=$VENV/interfaces
+
+venv_has_tf2_msgs() {
+  # Without PYTHONPATH, which a shell that sourced env.sh points at our own prefix.
+  env -u PYTHONPATH "$VENV/bin/python" -c \
+    'import importlib.util, sys; sys.exit(importlib.util.find_spec("tf2_msgs") is None)' 2>/dev/null
+}
+
+files_key() {
+  find "$@" -type f 2>/dev/null | LC_ALL=C sort |
+    while IFS= read -r f; do echo "$f $(sha256sum <"$f" | cut -c1-32)"; done |
+    sha256sum | cut -c1-32
+}
+
+# A subshell: its environment must not reach the workspace build.
+interfaces_build() (
+  export VIRTUAL_ENV=$VENV
+  export PATH=$VENV/bin:$PATH
+  export AMENT_PREFIX_PATH=$VENV${AMENT_PREFIX_PATH:+:$AMENT_PREFIX_PATH}
+  # Its setup.bash must chain no other prefix (env.sh layers the prefixes itself).
+  unset COLCON_PREFIX_PATH
+  rm -rf "$TF2_PREFIX" build/interfaces &&
+    colcon --log-base log/interfaces build --base-paths "$TF2_SRC" \
+      --build-base build/interfaces --install-base "$TF2_PREFIX" \
+      --event-handlers console_direct- \
+      --cmake-args -DPython3_EXECUTABLE="$VENV/bin/python" -DBUILD_TESTING=OFF
+)
+
+tf2_key=$( { echo "$pip_key"; files_key "$TF2_SRC"; } | sha256sum | cut -c1-32)
+if venv_has_tf2_msgs; then
+  rm -rf "$TF2_PREFIX" "$STAMPS/tf2_msgs"
+  skip tf2_msgs "skipped: the venv has its own"
+elif [ -f "$TF2_PREFIX/local_setup.bash" ] &&
+  [ "$(cat "$STAMPS/tf2_msgs" 2>/dev/null)" = "$tf2_key" ]; then
+  skip tf2_msgs
+else
+  rm -f "$STAMPS/tf2_msgs"
+  step tf2_msgs interfaces_build
+  echo "$tf2_key" >"$STAMPS/tf2_msgs"
+fi
+
+# --- 5. colcon build -----------------------------------------------------------------------------
 # The build stamp hashes what a --symlink-install build depends on: the wheel set, and the content
 # of every file under src/ except Python files, which --symlink-install links (the package
 # directories themselves are symlinked, so new modules need no build either). Of those, setup.py

@@ -1,6 +1,7 @@
 # Source me (bash):  source tools/env.sh
 # Puts the fishtail workspace on this shell's environment after tools/bootstrap.sh (make setup):
-# - activates .venv (ROS 2 Jazzy wheels, colcon, tools) and sources install/setup.bash;
+# - activates .venv (ROS 2 Jazzy wheels, colcon, tools), sources .venv/interfaces (tf2_msgs, which
+#   the wheels lack, when make setup built it) as an underlay, then install/setup.bash;
 # - AMENT_PREFIX_PATH: the install prefixes first, then the venv prefix (the wheels never set it,
 #   and install/setup.bash does not add the venv), so the ament index finds every package;
 # - PATH: install/<pkg>/lib/<pkg> for each package, appended, so executables such as
@@ -46,6 +47,11 @@ _ft_main() {
 
   # shellcheck disable=SC1091
   VIRTUAL_ENV_DISABLE_PROMPT=${VIRTUAL_ENV_DISABLE_PROMPT:-1} source "$_ft_venv/bin/activate"
+  # The venv's own tf2_msgs (tools/interfaces), before the workspace so the workspace overlays it.
+  if [ -f "$_ft_venv/interfaces/local_setup.bash" ]; then
+    # shellcheck disable=SC1091
+    source "$_ft_venv/interfaces/local_setup.bash"
+  fi
   if [ -f "$_ft_root/install/setup.bash" ]; then
     # shellcheck disable=SC1091
     source "$_ft_root/install/setup.bash"
