@@ -4,7 +4,10 @@ The node owns the timing and the watchdog; a backend only talks to its motor, an
 needs of the node (:meth:`MotorBackend.watchdog_refusal`, :meth:`MotorBackend.set_command_hold`)
 and how often it can have a new sample (:attr:`MotorBackend.max_sample_rate_hz`). This module
 holds the interface and the simulated motor's backend; the board's is
-:mod:`fishtail_driver.serial_backend`. It does not import rclpy.
+:mod:`fishtail_driver.serial_backend`. The simulated backend runs any :class:`SimMotor`: the
+first-order speed lag (:class:`fishtail_driver.motor_model.SimulatedMotor`) or the DC gear motor
+under the firmware's speed loop (:class:`fishtail_driver.dc_drive.PidDrivenDcMotor`). It does not
+import rclpy.
 """
 
 from __future__ import annotations
@@ -16,16 +19,19 @@ from collections.abc import Callable
 from typing import Protocol
 
 from fishtail_common.interface import Level
-from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
 
 
 @dataclasses.dataclass(frozen=True)
 class EncoderSample:
-    """Carrier angle (unwrapped, rad) and speed (rad/s) at a monotonic time (s)."""
+    """Carrier angle (unwrapped, rad) and speed (rad/s) at a monotonic time (s).
+
+    ``effort_n_m`` is the torque on the carrier where a model knows it (None: unknown).
+    """
 
     monotonic_s: float
     angle_rad: float
     velocity_rad_s: float
+    effort_n_m: float | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,17 +85,49 @@ class MotorBackend(Protocol):
         """Diagnostic level (0 OK, 1 WARN, 2 ERROR), message and key values."""
 
 
+class SimMotor(Protocol):
+    """A simulated motor with its encoder, as the simulated backend runs it."""
+
+    #: What the model is, for diagnostics ("first_order", "dc").
+    model_name: str
+
+    @property
+    def target_rad_s(self) -> float:
+        """The carrier speed commanded."""
+
+    @property
+    def speed_rad_s(self) -> float:
+        """The carrier speed now."""
+
+    @property
+    def effort_n_m(self) -> float | None:
+        """The torque on the carrier now, or None when the model has none."""
+
+    def command(self, speed_rad_s: float) -> None:
+        """A new carrier speed command (finite; negative means 0)."""
+
+    def advance(self, dt_s: float) -> None:
+        """Move the model on by ``dt_s`` seconds."""
+
+    def encoder_counts(self) -> int:
+        """The encoder's count on the motor shaft."""
+
+    def measured_angle_rad(self) -> float:
+        """The carrier angle as the encoder reports it."""
+
+    def status_values(self) -> dict[str, str]:
+        """Figures of this model for diagnostics, beyond speed, target and counts."""
+
+
 class SimBackend:
-    """The simulated DC motor, advanced to the wall (monotonic) clock at every read."""
+    """A simulated motor, advanced to the wall (monotonic) clock at every read."""
 
     name = "sim"
     hardware_id = "sim"
 
-    def __init__(
-        self, parameters: MotorParameters, clock: Callable[[], float] = time.monotonic
-    ) -> None:
-        """Create the model; ``clock`` is injectable for tests."""
-        self.motor = SimulatedMotor(parameters)
+    def __init__(self, motor: SimMotor, clock: Callable[[], float] = time.monotonic) -> None:
+        """Run ``motor``; ``clock`` is injectable for tests."""
+        self.motor = motor
         self._clock = clock
         self._last_s: float | None = None
 
@@ -120,9 +158,10 @@ class SimBackend:
         self.motor.command(speed_rad_s)
 
     def read(self) -> EncoderSample:
-        """Quantised angle as the encoder reports it, velocity from the model."""
+        """Quantised angle as the encoder reports it; velocity and effort from the model."""
         now = self._advance()
-        return EncoderSample(now, self.motor.measured_angle_rad(), self.motor.speed_rad_s)
+        motor = self.motor
+        return EncoderSample(now, motor.measured_angle_rad(), motor.speed_rad_s, motor.effort_n_m)
 
     def stop(self) -> None:
         """Command zero speed."""
@@ -140,8 +179,10 @@ class SimBackend:
             Level.OK,
             "simulated motor running",
             {
+                "motor_model": motor.model_name,
                 "target_speed_rad_s": f"{motor.target_rad_s:.4f}",
                 "speed_rad_s": f"{motor.speed_rad_s:.4f}",
                 "encoder_counts": str(motor.encoder_counts()),
+                **motor.status_values(),
             },
         )

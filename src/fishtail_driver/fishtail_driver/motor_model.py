@@ -67,6 +67,11 @@ class MotorParameters:
 class SimulatedMotor:
     """State of the simulated motor: the carrier angle (unwrapped) and speed."""
 
+    #: For diagnostics.
+    model_name = "first_order"
+    #: The first-order model has no torque: the joint state's effort stays empty.
+    effort_n_m: float | None = None
+
     def __init__(self, parameters: MotorParameters) -> None:
         """Start at rest at angle 0."""
         self.parameters = parameters
@@ -114,3 +119,7 @@ class SimulatedMotor:
     def measured_angle_rad(self) -> float:
         """The carrier angle as the encoder reports it (quantised)."""
         return self.encoder_counts() * self.parameters.carrier_angle_per_count_rad
+
+    def status_values(self) -> dict[str, str]:
+        """Nothing beyond what every simulated motor reports."""
+        return {}

@@ -5,10 +5,14 @@ Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the who
   pub ``motor/joint_state``  sensor_msgs/JointState, unwrapped carrier angle [rad] and speed
                              [rad/s], sensor-data QoS, at ``publish_rate_hz``, stamped with the
                              time the encoder was read (not the publish time); stamps strictly
-                             increase (:mod:`fishtail_driver.stamping`)
+                             increase (:mod:`fishtail_driver.stamping`); effort: the torque on
+                             the carrier [N m] where the backend knows it (the sim's dc motor),
+                             else empty
   pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``;
                              WARN when motor/joint_state is rarer or has longer gaps than the
-                             parameters promise (:mod:`fishtail_common.stream_timing`)
+                             parameters promise (:mod:`fishtail_common.stream_timing`); the
+                             backend's figures as key values (the dc motor's current_a,
+                             supply_power_w ...)
 
 Parameters: :mod:`fishtail_driver.parameters`. A watchdog, on a timer of its own (at most 50 ms,
 whatever the publish rate), stops the motor when no command arrives for ``cmd_timeout_sec``;
@@ -256,6 +260,7 @@ class DriverNode(SuiteNodeBase):
         message.header.stamp = stamp
         message.position = [sample.angle_rad]
         message.velocity = [sample.velocity_rad_s]
+        message.effort = [] if sample.effort_n_m is None else [sample.effort_n_m]
         self.state_publisher.publish(message)
         self.rate_check.record(sample.monotonic_s)
 

@@ -3,6 +3,14 @@
 Plain Python: the node declares these (:func:`fishtail_common.ros.declare`) and checks run-time
 changes with :meth:`~fishtail_common.parameters.ParameterSpec.check`; :func:`make_backend` turns
 the values in force into the motor backend they describe.
+
+The sim backend's motor is ``motor_model``'s: ``first_order`` (a speed lag,
+``sim_time_constant_sec``) or ``dc`` (a DC gear motor, ``motor_*``, ``supply_voltage_v``,
+``gear_ratio``, ``gearbox_efficiency``, ``rotor_inertia_kg_m2``, the frictions, under the board
+firmware's speed loop with ``pid_k*`` every ``1000 // serial_pid_rate_hz`` ms). The ``dc``
+defaults are a Pololu 37D 12 V motor (:class:`fishtail_driver.dc_motor.DcMotorParameters`), whose
+30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
+``encoder_counts_per_revolution:=64`` (not those parameters' defaults).
 """
 
 from __future__ import annotations
@@ -11,8 +19,19 @@ from collections.abc import Callable, Mapping
 
 from fishtail_common.interface import CARRIER_JOINT
 from fishtail_common.parameters import ParameterSpec, ParameterValue
-from fishtail_driver.backends import MotorBackend, SimBackend
-from fishtail_driver.motor_model import MotorParameters
+from fishtail_driver.backends import MotorBackend, SimBackend, SimMotor
+from fishtail_driver.dc_drive import PidDrivenDcMotor
+from fishtail_driver.dc_motor import (
+    DcMotor,
+    DcMotorParameters,
+    LoadInertia,
+    LoadTorque,
+    zero_load,
+    zero_load_inertia,
+)
+from fishtail_driver.firmware_pid import PidGains
+from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
+from fishtail_driver.protocol import Scale
 
 ParameterValues = Mapping[str, ParameterValue]
 
@@ -44,6 +63,34 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("sim_speed_noise_rad_s", 0.0, "sim: std of a stationary speed disturbance "
                   "(correlation time: the time constant)", "rad/s", 0.0, 100.0, read_only=True),
     ParameterSpec("sim_seed", 0, "sim: noise seed", read_only=True),
+    ParameterSpec("motor_model", "first_order", "sim: the simulated motor: first_order (a speed "
+                  "lag, sim_time_constant_sec) or dc (a DC gear motor under the board firmware's "
+                  "speed loop; effort in motor/joint_state)", choices=("first_order", "dc"),
+                  read_only=True),
+    # The DC motor (motor_model dc): electrical and friction figures at the motor shaft, before
+    # the gearbox (gear_ratio). Defaults: a Pololu 37D 12 V motor (dc_motor.DcMotorParameters).
+    ParameterSpec("supply_voltage_v", 12.0, "dc: motor supply voltage (armature voltage at full "
+                  "PWM)", "V", 0.1, 1000.0, read_only=True),
+    ParameterSpec("motor_resistance_ohm", 2.18, "dc: armature resistance", "ohm", 1e-4, 1e4,
+                  read_only=True),
+    ParameterSpec("motor_torque_constant_n_m_a", 0.01115, "dc: torque constant (= back-EMF "
+                  "constant in V s/rad)", "N m/A", 1e-6, 100.0, read_only=True),
+    ParameterSpec("gearbox_efficiency", 0.76, "dc: fraction of the power the gearbox passes on, "
+                  "either way", minimum=0.01, maximum=1.0, read_only=True),
+    ParameterSpec("rotor_inertia_kg_m2", 3e-6, "dc: rotor inertia at the motor shaft", "kg m^2",
+                  1e-10, 10.0, read_only=True),
+    ParameterSpec("viscous_friction_n_m_s", 1.1e-6, "dc: viscous friction at the motor shaft",
+                  "N m s/rad", 0.0, 10.0, read_only=True),
+    ParameterSpec("coulomb_friction_n_m", 1.1e-3, "dc: Coulomb friction at the motor shaft (also "
+                  "the breakaway torque)", "N m", 0.0, 100.0, read_only=True),
+    ParameterSpec("pid_kp", 20, "dc: the firmware's speed-loop Kp (as 'u kp:kd:ki:ko' sets it)",
+                  minimum=-32768, maximum=32767, read_only=True),
+    ParameterSpec("pid_kd", 12, "dc: the firmware's speed-loop Kd", minimum=-32768,
+                  maximum=32767, read_only=True),
+    ParameterSpec("pid_ki", 0, "dc: the firmware's speed-loop Ki", minimum=-32768, maximum=32767,
+                  read_only=True),
+    ParameterSpec("pid_ko", 50, "dc: the firmware's speed-loop Ko (the increment's divisor)",
+                  minimum=1, maximum=32767, read_only=True),
     # The serial backend (a ROSArduinoBridge board); the encoder is described by
     # encoder_counts_per_revolution and gear_ratio, shared with the sim backend.
     ParameterSpec("serial_port", "/dev/ttyACM0", "serial: device path (prefer "
@@ -54,9 +101,9 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   0.005, 5.0, read_only=True),
     ParameterSpec("serial_channel", "left", "serial: motor channel of the tail on the board: "
                   "left or right", choices=("left", "right"), read_only=True),
-    ParameterSpec("serial_pid_rate_hz", 30, "serial: the firmware's PID_RATE; the PID frame is "
-                  "1000 // PID_RATE ms (30 -> 33 ms = 30.30 Hz); m speeds are encoder ticks per "
-                  "frame", "Hz", 1, 1000, read_only=True),
+    ParameterSpec("serial_pid_rate_hz", 30, "serial, and sim with motor_model dc: the firmware's "
+                  "PID_RATE; the PID frame is 1000 // PID_RATE ms (30 -> 33 ms = 30.30 Hz); m "
+                  "speeds are encoder ticks per frame", "Hz", 1, 1000, read_only=True),
     ParameterSpec("serial_poll_rate_hz", 100.0, "serial: encoder ('e') polls per second", "Hz",
                   1.0, 1000.0, read_only=True),
     ParameterSpec("serial_resend_period_sec", 0.5, "serial: re-send the current non-zero speed "
@@ -72,8 +119,9 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
 SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in DRIVER_PARAMETERS}
 
 
-def _sim_backend(values: ParameterValues) -> MotorBackend:
-    return SimBackend(
+def _first_order_motor(values: ParameterValues, load: LoadTorque, inertia: LoadInertia) -> SimMotor:
+    """The speed lag; it feels no load."""
+    return SimulatedMotor(
         MotorParameters(
             time_constant_s=float(values["sim_time_constant_sec"]),
             max_speed_rad_s=float(values["max_speed_rad_s"]),
@@ -85,7 +133,42 @@ def _sim_backend(values: ParameterValues) -> MotorBackend:
     )
 
 
-def _serial_backend(values: ParameterValues) -> MotorBackend:
+def _dc_motor(values: ParameterValues, load: LoadTorque, inertia: LoadInertia) -> SimMotor:
+    parameters = DcMotorParameters(
+        resistance_ohm=float(values["motor_resistance_ohm"]),
+        torque_constant_n_m_a=float(values["motor_torque_constant_n_m_a"]),
+        supply_voltage_v=float(values["supply_voltage_v"]),
+        gear_ratio=float(values["gear_ratio"]),
+        gearbox_efficiency=float(values["gearbox_efficiency"]),
+        rotor_inertia_kg_m2=float(values["rotor_inertia_kg_m2"]),
+        viscous_friction_n_m_s=float(values["viscous_friction_n_m_s"]),
+        coulomb_friction_n_m=float(values["coulomb_friction_n_m"]),
+    )
+    gains = PidGains(
+        int(values["pid_kp"]), int(values["pid_kd"]), int(values["pid_ki"]), int(values["pid_ko"])
+    )
+    scale = Scale(
+        int(values["encoder_counts_per_revolution"]),
+        float(values["gear_ratio"]),
+        int(values["serial_pid_rate_hz"]),
+    )
+    return PidDrivenDcMotor(DcMotor(parameters, load, inertia), scale, gains)
+
+
+_SIM_MOTORS: dict[str, Callable[[ParameterValues, LoadTorque, LoadInertia], SimMotor]] = {
+    "first_order": _first_order_motor,
+    "dc": _dc_motor,
+}
+
+
+def _sim_backend(values: ParameterValues, load: LoadTorque, inertia: LoadInertia) -> MotorBackend:
+    return SimBackend(_SIM_MOTORS[str(values["motor_model"])](values, load, inertia))
+
+
+def _serial_backend(
+    values: ParameterValues, load: LoadTorque, inertia: LoadInertia
+) -> MotorBackend:
+    """The board; the load is the real one."""
     # Imported here: pyserial is needed with a board only.
     from fishtail_driver.serial_backend import SerialBackend
     from fishtail_driver.serial_config import SerialConfig
@@ -109,15 +192,21 @@ def _serial_backend(values: ParameterValues) -> MotorBackend:
     )
 
 
-_BACKENDS: dict[str, Callable[[ParameterValues], MotorBackend]] = {
+_BACKENDS: dict[str, Callable[[ParameterValues, LoadTorque, LoadInertia], MotorBackend]] = {
     "sim": _sim_backend,
     "serial": _serial_backend,
 }
 
 
-def make_backend(values: ParameterValues) -> MotorBackend:
+def make_backend(
+    values: ParameterValues,
+    load: LoadTorque = zero_load,
+    load_inertia: LoadInertia = zero_load_inertia,
+) -> MotorBackend:
     """The backend the ``backend`` parameter names, configured from ``values`` (not started).
 
+    ``load`` and ``load_inertia`` are the carrier's load for a simulated motor that feels one
+    (``motor_model`` dc; :mod:`fishtail_driver.dc_motor` says what they return); none by default.
     ValueError, with the reason, for settings the backend cannot work with.
     """
-    return _BACKENDS[str(values["backend"])](values)
+    return _BACKENDS[str(values["backend"])](values, load, load_inertia)

@@ -145,7 +145,8 @@ class FakeClock:
 
 def test_sim_backend_advances_with_its_clock_and_stops():
     clock = FakeClock()
-    backend = SimBackend(MotorParameters(time_constant_s=0.1, counts_per_revolution=4096), clock)
+    motor = SimulatedMotor(MotorParameters(time_constant_s=0.1, counts_per_revolution=4096))
+    backend = SimBackend(motor, clock)
     backend.start()
     backend.set_speed(4.0)
     clock.now += 2.0
@@ -157,5 +158,7 @@ def test_sim_backend_advances_with_its_clock_and_stops():
     clock.now += 1.0
     stopped = backend.read()
     assert stopped.velocity_rad_s == pytest.approx(0.0, abs=1e-3)
+    assert stopped.effort_n_m is None  # the first-order model has no torque
     level, _, values = backend.status()
     assert level == 0 and values["target_speed_rad_s"] == "0.0000"
+    assert values["motor_model"] == "first_order"

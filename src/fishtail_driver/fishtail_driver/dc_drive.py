@@ -1,0 +1,105 @@
+"""The DC gear motor on one channel of the motor board, under the firmware's speed loop.
+
+What the simulated backend runs with ``motor_model: dc``: a carrier speed command becomes ticks
+per PID frame exactly as the serial backend sends it (:meth:`fishtail_driver.protocol.Scale.
+ticks_per_frame`: rounded, clamped to the board's 16-bit ``int``) and reaches
+:class:`~fishtail_driver.firmware_pid.FirmwareSpeedLoop` as an ``m`` would (0 is ``m 0 0``: PWM
+0 at once, loop reset and stopped). Every PID frame (``1000 // PID_RATE`` ms) the loop reads the
+encoder and sets the PWM; between frames the :class:`~fishtail_driver.dc_motor.DcMotor` runs at
+that duty (PWM / 255). The encoder counts ``counts_per_revolution`` per motor-shaft turn,
+``gear_ratio`` motor turns per carrier turn, floored as a counter sees them. The board's 2 s
+auto-stop is not modelled: the simulated backend needs no keep-alive (the node's watchdog stops
+it).
+
+It has the interface of :class:`fishtail_driver.motor_model.SimulatedMotor` (see
+:class:`fishtail_driver.backends.SimMotor`), plus the carrier torque as the effort and the
+current and powers in its status.
+
+>>> from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
+>>> drive = PidDrivenDcMotor(DcMotor(DcMotorParameters()), Scale(64, 30.0))
+>>> drive.command(4.0)
+>>> drive.loop.set_points[0].target_ticks_per_frame   # 4 rad/s * 1920 / 2 pi * 0.033 s = 40.3
+40
+"""
+
+from __future__ import annotations
+
+import math
+
+from fishtail_driver.dc_motor import DcMotor
+from fishtail_driver.firmware_pid import FirmwareSpeedLoop, FrameTimer, PidGains
+from fishtail_driver.protocol import PWM_MAX, Scale
+
+
+class PidDrivenDcMotor:
+    """A :class:`DcMotor` with its encoder, driven by the firmware's speed loop on a frame grid."""
+
+    #: For diagnostics.
+    model_name = "dc"
+
+    def __init__(self, motor: DcMotor, scale: Scale, gains: PidGains | None = None) -> None:
+        """At the motor's present state; the loop powered on (stopped, PWM 0) at time 0."""
+        self.motor = motor
+        self.scale = scale
+        self.loop = FirmwareSpeedLoop((self.encoder_counts(),), gains)
+        self.timer = FrameTimer(scale.frame_ms, start_s=0.0)
+        self.time_s = 0.0
+        self.target_rad_s = 0.0
+        self._apply_pwm()
+
+    def _apply_pwm(self) -> None:
+        self.motor.set_duty(self.loop.pwm[0] / PWM_MAX)
+
+    def command(self, speed_rad_s: float) -> None:
+        """A carrier speed target (negative: 0, the motor is one-way), sent as ``m ticks``."""
+        if not math.isfinite(speed_rad_s):
+            raise ValueError(f"speed command must be finite, got {speed_rad_s!r}")
+        self.target_rad_s = max(speed_rad_s, 0.0)
+        ticks, _ = self.scale.ticks_per_frame(self.target_rad_s)
+        self.loop.command((ticks,), (self.encoder_counts(),))
+        self._apply_pwm()
+
+    def advance(self, dt_s: float) -> None:
+        """Move on by ``dt_s`` seconds, running the PID frames that fall within it."""
+        if not dt_s > 0.0:
+            return
+        end_s = self.time_s + dt_s
+        for frame_s in self.timer.due(end_s):
+            self.motor.advance(frame_s - self.time_s)
+            self.time_s = frame_s
+            self.loop.frame((self.encoder_counts(),))
+            self._apply_pwm()
+        self.motor.advance(end_s - self.time_s)
+        self.time_s = end_s
+
+    @property
+    def speed_rad_s(self) -> float:
+        """The carrier speed (the model's, not estimated from counts)."""
+        return self.motor.speed_rad_s
+
+    def encoder_counts(self) -> int:
+        """Encoder count on the motor shaft (floor, as a counter sees it; not wrapped)."""
+        return math.floor(self.scale.counts_from_angle(self.motor.angle_rad))
+
+    def measured_angle_rad(self) -> float:
+        """The carrier angle as the encoder reports it (quantised)."""
+        return self.scale.angle_from_counts(self.encoder_counts())
+
+    @property
+    def effort_n_m(self) -> float:
+        """Torque of the gearbox on the carrier."""
+        return self.motor.outputs().carrier_torque_n_m
+
+    def status_values(self) -> dict[str, str]:
+        """The motor's electrical and mechanical figures and the loop's state."""
+        outputs = self.motor.outputs()
+        point = self.loop.set_points[0]
+        return {
+            "current_a": f"{outputs.current_a:.4f}",
+            "supply_power_w": f"{outputs.supply_power_w:.4f}",
+            "mechanical_power_w": f"{outputs.mechanical_power_w:.4f}",
+            "carrier_torque_n_m": f"{outputs.carrier_torque_n_m:.5f}",
+            "pwm": str(self.loop.pwm[0]),
+            "target_ticks_per_frame": str(point.target_ticks_per_frame),
+            "pid_running": str(self.loop.moving).lower(),
+        }
