@@ -59,6 +59,7 @@ def test_refused_commands_and_watchdog(start_node, ros):
     )
     during = [m.velocity[0] for m in motor.messages[first_refused:]]
     assert len(during) > 20
+    assert all(len(m.effort) == 0 for m in motor.messages)  # the first-order model has no torque
     assert min(during) > 0.99 * SPEED_RAD_S, f"speed sagged to {min(during):.3f} rad/s"
     _, level, status = ros.statuses(diagnostics, "driver")[-1]
     values = ros.values(status)
@@ -100,3 +101,46 @@ def test_refused_commands_and_watchdog(start_node, ros):
     assert "no speed command" in status.message
     assert ros.values(status)["watchdog_stops"] == "1"
     assert ros.values(status)["commanded_speed_rad_s"] == "0.0000"
+
+
+def test_dc_motor_publishes_effort_and_its_current(start_node, ros):
+    """motor_model dc: the loop holds the speed; effort and the motor's current are published."""
+    start_node(
+        "driver",
+        params={
+            "motor_model": "dc",
+            "gear_ratio": 30.0,  # the default motor's gearbox and encoder (Pololu 37D 30:1)
+            "encoder_counts_per_revolution": 64,
+            "publish_rate_hz": 100.0,
+            "diagnostics_period_sec": 0.2,
+            "cmd_timeout_sec": CMD_TIMEOUT_S,
+        },
+    )
+    motor = ros.record(JointState, "motor/joint_state")
+    diagnostics = ros.record_diagnostics()
+    ros.wait_for_publishers("motor/joint_state")
+    ros.wait_for_subscribers("motor/cmd_speed")
+    ros.command_speed(SPEED_RAD_S, period_s=0.1)
+
+    def at_speed() -> bool:
+        return bool(motor.messages) and abs(motor.messages[-1].velocity[0] / SPEED_RAD_S - 1) < 0.03
+
+    ros.spin_until(at_speed, 10.0, "the dc motor within 3 % of 4 rad/s")
+    latest = motor.messages[-1]
+    # No load is attached in the node: the gearbox passes no torque on to the carrier.
+    assert list(latest.effort) == [0.0]
+    assert list(motor.messages[0].effort) == [0.0]
+
+    def motor_figures() -> dict[str, str] | None:
+        for _, _, status in reversed(ros.statuses(diagnostics, "driver")):
+            values = ros.values(status)
+            if values.get("motor_model") == "dc" and float(values.get("speed_rad_s", 0)) > 3.0:
+                return values
+        return None
+
+    ros.spin_until(motor_figures, 5.0, "driver diagnostics with the dc motor at speed")
+    values = motor_figures()
+    # Friction alone at 4 rad/s: k I = τ_c + b ω_m, 0.11 A; d V I at PWM ~33/255: ~0.17 W.
+    assert 0.05 < float(values["current_a"]) < 0.5
+    assert 0.0 < float(values["supply_power_w"]) < 1.0
+    assert values["pid_running"] == "true"
