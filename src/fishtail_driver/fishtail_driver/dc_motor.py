@@ -29,8 +29,9 @@ consistent at any state; it is found by trying the motoring one first.
 
 Inductance is neglected: the electrical time constant L/R of a motor of this size is about a
 millisecond (L of 1-3 mH over R ≈ 2 Ω), far below its mechanical one J_m R/k² (≈ 50 ms for the
-defaults) and the 33 ms between two PWM changes of the board; the PWM carrier (~1 kHz) is averaged
-by that inductance, so I is the average current.
+defaults) and the 33 ms between two PWM changes of the board. The bridge conducts both ways, so
+the circuit is linear and its current averaged over a PWM period (490-980 Hz on the Nano) is
+(d V − k N ω) / R whatever L: I is that average (its ripple, left out, adds to the R I² losses).
 
 Stiction (the Karnopp model, breakaway at τ_c): at rest the motor stays at rest, with no motion
 and no chattering, while the torques on it without friction are within τ_c of balance; it breaks
