@@ -54,6 +54,11 @@ from fishtail_kinematics.engine.geometry import (
     UndulatoryGeometry,
     UndulatoryState,
 )
+from fishtail_kinematics.engine.link_motion import (
+    BodyMotion,
+    oscillatory_link_motion,
+    undulatory_link_motion,
+)
 from fishtail_kinematics.engine.linkage_points import (
     LinkagePoints,
     OscillatoryPoints,
@@ -120,6 +125,8 @@ class Tail(abc.ABC):
     joint_names: ClassVar[tuple[str, ...]]
     #: The angle of a second tail joint (the fin link's), if the mechanism has one.
     fin_joint: ClassVar[str | None]
+    #: The moving bodies, named as in :mod:`~fishtail_kinematics.engine.link_inertia`.
+    links: ClassVar[tuple[str, ...]]
 
     def __init__(self, geometry: Geometry) -> None:
         """Keep ``geometry``; subclasses validate it."""
@@ -158,6 +165,13 @@ class Tail(abc.ABC):
     @abc.abstractmethod
     def link_points(self, state: LinkageState) -> LinkagePoints:
         """Every joint of ``state`` (solved by this tail) in the frame at O, for drawing."""
+
+    @abc.abstractmethod
+    def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
+        """Velocity and acceleration of every body of :attr:`links` at ``state``'s steady speed.
+
+        At a carrier speed of 1 rad/s: the velocity ratios and their derivatives in phi.
+        """
 
 
 def assembly_violations(
@@ -202,6 +216,7 @@ class OscillatoryTail(Tail):
     state_fields = OscillatoryState._fields
     joint_names = ("theta1", "theta2", "theta3")
     fin_joint = None
+    links = ("carrier", "planet", "crank_link", "rocker_link", "tail_link")
     geometry: OscillatoryGeometry
 
     def __init__(self, geometry: OscillatoryGeometry) -> None:
@@ -302,6 +317,12 @@ class OscillatoryTail(Tail):
         """Every joint of ``state`` in the frame at O."""
         return oscillatory_points(self.geometry, state)
 
+    def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
+        """Carrier, planet, PR, RS and ST (``state`` an oscillatory state)."""
+        return oscillatory_link_motion(
+            self.geometry, self.theta2_mid, cast(OscillatoryState, state)
+        )
+
     def _solve_array(self, phi: FloatArray, phi_dot: FloatArray) -> OscillatoryState:
         return self.solve_array_with_tail_trig(phi, phi_dot)[0]
 
@@ -388,6 +409,10 @@ class UndulatoryTail(Tail):
     state_fields = UndulatoryState._fields
     joint_names = ("theta1", "theta2", "theta3", "theta4", "theta5")
     fin_joint = "theta5"
+    links = (
+        "carrier", "planet", "crank_link", "rocker_link",
+        "swing_arm", "slider", "slotted_link", "fin_link",
+    )  # fmt: skip
     geometry: UndulatoryGeometry
 
     def __init__(self, geometry: UndulatoryGeometry) -> None:
@@ -499,6 +524,12 @@ class UndulatoryTail(Tail):
     def link_points(self, state: LinkageState) -> UndulatoryPoints:
         """Every joint of ``state`` (an undulatory state) in the frame at O."""
         return undulatory_points(self.geometry, cast(UndulatoryState, state))
+
+    def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
+        """The drive, SW, the slider A, AV and VT (``state`` an undulatory state)."""
+        return undulatory_link_motion(
+            self.geometry, self._drive.theta2_mid, cast(UndulatoryState, state)
+        )
 
     def _solve_array_path(self, phi: FloatArray, phi_dot: FloatArray) -> UndulatoryState:
         return self._solve_array(*self._drive.solve_array_with_tail_trig(phi, phi_dot))

@@ -2,7 +2,10 @@
 
 The kinematics node declares :data:`MECHANISM` and the geometry specs
 (:data:`~fishtail_kinematics.engine.geometry.GEOMETRY_PARAMETERS`), the command line builds its
-flags from them, and ``config/*.yaml`` must agree with them (a test checks).
+flags from them, and ``config/*.yaml`` must agree with them (a test checks). The same files hold
+the links' masses and moments of inertia
+(:data:`~fishtail_kinematics.engine.link_inertia.INERTIA_PARAMETERS`), which are not geometry:
+they are read by :func:`~fishtail_kinematics.engine.link_inertia.link_inertia_from_parameters`.
 
 >>> geometry = geometry_from_parameters({"mechanism": "oscillatory", "pivot_offset_m": 0.18})
 >>> geometry.pivot_offset_m
@@ -27,6 +30,7 @@ from fishtail_kinematics.engine.geometry import (
     OSCILLATORY,
     Geometry,
 )
+from fishtail_kinematics.engine.link_inertia import INERTIA_PARAMETERS_BY_NAME
 
 MECHANISM = ParameterSpec("mechanism", OSCILLATORY, "tail mechanism", choices=MECHANISMS)
 #: The mechanism and every length: the parameters that make a geometry.
@@ -47,7 +51,8 @@ def check_parameter(name: str, value: object) -> float:
 def geometry_from_parameters(values: Mapping[str, object]) -> Geometry:
     """Build the geometry that ``values`` describe; names not given keep their defaults.
 
-    Names of the other mechanism are accepted and ignored (a node declares them all); unknown
+    Names of the other mechanism are accepted and ignored (a node declares them all), and so are
+    the links' masses and inertias (a parameter file holds them beside the lengths); unknown
     names, wrong types and out-of-range values raise :class:`ParameterError`. Whether the linkage
     assembles is checked by the engine, not here.
     """
@@ -59,7 +64,7 @@ def geometry_from_parameters(values: Mapping[str, object]) -> Geometry:
     fields = geometry_type.__dataclass_fields__
     chosen = {}
     for name, value in values.items():
-        if name == MECHANISM.name:
+        if name == MECHANISM.name or name in INERTIA_PARAMETERS_BY_NAME:
             continue
         number = check_parameter(name, value)
         if name in fields:

@@ -1,0 +1,233 @@
+"""How every moving body of a solved linkage moves and accelerates: second-order kinematics.
+
+For a state solved at carrier speed phi_dot, each body's centre of mass G (the middle of the link,
+see :mod:`~fishtail_kinematics.engine.link_inertia`) has a velocity and an acceleration, and the
+body an angular velocity and an angular acceleration, while the carrier turns steadily at that
+speed. At phi_dot = 1 rad/s these are the linkage's velocity ratios dG/dphi, dtheta/dphi and their
+derivatives d2G/dphi2, d2theta/dphi2; at any speed they scale with phi_dot and phi_dot^2. Frame and
+conventions: those of the engine (O at the ring-gear centre, x back, y left, angles
+counter-clockwise). e(a) = (cos a, sin a), e'(a) = (-sin a, cos a).
+
+The accelerations are analytic: differentiating a loop's velocity equations once more gives the
+same linear system in the second derivatives, with the squared rates on the right-hand side.
+
+* The Cardan couple, c = phi + psi: the carrier's centre of mass is C/2 with
+  C = (R/2) (-sin c, cos c), so G_carrier = (-phi_dot OP/4, OP_dot/4) per unit time, the
+  planet's centre C twice that; OP_ddot = -phi_dot^2 OP. The carrier turns at phi_dot, the planet
+  at -phi_dot.
+* Mechanism 1 (loop P + PR (cos th1, -sin th1) = S + RS e(th2)):
+
+      PR sin th1 th1'' - RS sin th2 th2'' = a = RS th2'^2 cos th2 - PR th1'^2 cos th1
+      PR cos th1 th1'' + RS cos th2 th2'' = b = OP'' + PR th1'^2 sin th1 + RS th2'^2 sin th2
+
+  so th1'' = (a cos th2 + b sin th2) / (PR sin(th1 + th2)), th2'' = (b sin th1 - a cos th1) /
+  (RS sin(th1 + th2)); th3'' = th2''.
+* Mechanism 2: the second time derivative of the four loop equations of ``docs/kinematics.md``
+  (AU = u, AS = a; ci = cos thi, si = sin thi) is, with the unknowns on the left,
+
+      c4 u'' - u s4 th4'' - a''       = r1 = 2 u' th4' s4 + u th4'^2 c4 - SU (th3'' s3 + th3'^2 c3)
+      s4 u'' + u c4 th4''             = r2 = -2 u' th4' c4 + u th4'^2 s4 + SU (th3'' c3 - th3'^2 s3)
+      a'' + AV s4 th4'' + VW s5 th5'' = r3 = SW (th3'' s3 + th3'^2 c3) - AV th4'^2 c4 - VW th5'^2 c5
+      -AV c4 th4'' - VW c5 th5''      = r4 = SW (th3'^2 s3 - th3'' c3) - AV th4'^2 s4 - VW th5'^2 s5
+
+  and it is solved in closed form like the rates: with p = r2 c4 - r1 s4 and s = r3 c5 + r4 s5,
+  a'' [c5 - (AV/u) s4 s45] = s - (AV/u) s45 p, th4'' = (p - a'' s4)/u and
+  th5'' = (r3 s5 - r4 c5 - a'' s5 - AV c45 th4'') / VW, s45 = sin(th4 - th5), c45 = cos(th4 - th5).
+
+Each tail gives the motion of its bodies (``Tail.link_motion``), so that callers (the carrier's
+load) do not depend on the mechanism.
+
+>>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
+>>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
+>>> tail = OscillatoryTail(OscillatoryGeometry())
+>>> bodies = tail.link_motion(tail.solve(0.0, 1.0))
+>>> [body.link for body in bodies]
+['carrier', 'planet', 'crank_link', 'rocker_link', 'tail_link']
+>>> planet = bodies[1]  # its centre (0, R/2) moves to -x and accelerates towards O
+>>> float(planet.velocity_x), float(planet.acceleration_y), float(planet.angular_velocity)
+(-0.05, -0.05, -1.0)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from fishtail_kinematics.engine.geometry import (
+    OscillatoryGeometry,
+    OscillatoryState,
+    Real,
+    UndulatoryGeometry,
+    UndulatoryState,
+)
+
+
+class BodyMotion(NamedTuple):
+    """One rigid body of a solved state; floats or arrays shaped like the state's fields.
+
+    ``link`` names it as :mod:`~fishtail_kinematics.engine.link_inertia` does. Velocities [m/s]
+    and accelerations [m/s^2] are those of its centre of mass, in the frame at O; the angular
+    ones [rad/s, rad/s^2] are about z. A translating body has zero angular velocity.
+    """
+
+    link: str
+    velocity_x: Real
+    velocity_y: Real
+    acceleration_x: Real
+    acceleration_y: Real
+    angular_velocity: Real
+    angular_acceleration: Real
+
+
+def _turning(
+    link: str, distance_m: float, rate: Real, rate_derivative: Real, cos: Real, sin: Real
+) -> BodyMotion:
+    """A body turning about a fixed pivot with its centre of mass at distance_m along e(angle)."""
+    along = distance_m * rate * rate
+    across = distance_m * rate_derivative
+    return BodyMotion(
+        link,
+        -distance_m * rate * sin, distance_m * rate * cos,
+        -across * sin - along * cos, across * cos - along * sin,
+        rate, rate_derivative,
+    )  # fmt: skip
+
+
+class _Drive(NamedTuple):
+    """The Cardan couple, PR and RS, and what the tail links need: theta2's rates."""
+
+    bodies: tuple[BodyMotion, ...]
+    theta2_rate: Real
+    theta2_rate_derivative: Real
+
+
+def _drive_motion(
+    geometry: OscillatoryGeometry | UndulatoryGeometry,
+    theta2_mid: float,
+    state: OscillatoryState | UndulatoryState,
+    cos3: Real,
+    sin3: Real,
+) -> _Drive:
+    g = geometry
+    speed = state.motor_velocity
+    op, op_rate = state.slider_position, state.slider_velocity
+    op_rate_derivative = -op * speed * speed
+    theta1_rate, theta2_rate = state.theta1_dot, state.theta2_dot
+    # theta2 = theta3 + mid: the sum formulas instead of two more sines and cosines of arrays.
+    cos_mid, sin_mid = math.cos(theta2_mid), math.sin(theta2_mid)
+    cos2 = cos3 * cos_mid - sin3 * sin_mid
+    sin2 = sin3 * cos_mid + cos3 * sin_mid
+    # Joint R seen from P: PR (cos th1, -sin th1) = S + RS e(th2) - P, no further trigonometry.
+    cos1 = (g.pivot_offset_m + g.rocker_link_m * cos2) / g.crank_link_m
+    sin1 = (op - g.rocker_link_m * sin2) / g.crank_link_m
+    sin12 = sin1 * cos2 + cos1 * sin2
+    crank_squared = g.crank_link_m * theta1_rate * theta1_rate
+    rocker_squared = g.rocker_link_m * theta2_rate * theta2_rate
+    a = rocker_squared * cos2 - crank_squared * cos1
+    b = op_rate_derivative + crank_squared * sin1 + rocker_squared * sin2
+    theta1_rate_derivative = (a * cos2 + b * sin2) / (g.crank_link_m * sin12)
+    theta2_rate_derivative = (b * sin1 - a * cos1) / (g.rocker_link_m * sin12)
+    # Carrier (centre of mass C/2) and planet (centre C), from OP and OP_dot: no trigonometry.
+    quarter_x, quarter_y = -0.25 * speed * op, 0.25 * op_rate
+    quarter_ax, quarter_ay = -0.25 * speed * op_rate, 0.25 * op_rate_derivative
+    zero = 0.0 * speed
+    carrier = BodyMotion("carrier", quarter_x, quarter_y, quarter_ax, quarter_ay, speed, zero)
+    planet = BodyMotion(
+        "planet", 2.0 * quarter_x, 2.0 * quarter_y, 2.0 * quarter_ax, 2.0 * quarter_ay,
+        -speed, zero,
+    )  # fmt: skip
+    rocker = _turning(
+        "rocker_link", 0.5 * g.rocker_link_m, theta2_rate, theta2_rate_derivative, cos2, sin2
+    )
+    # PR's middle is halfway between P = (0, OP) and R, whose motion is twice the rocker's middle.
+    crank = BodyMotion(
+        "crank_link",
+        rocker.velocity_x, 0.5 * op_rate + rocker.velocity_y,
+        rocker.acceleration_x, 0.5 * op_rate_derivative + rocker.acceleration_y,
+        -theta1_rate, -theta1_rate_derivative,
+    )  # fmt: skip
+    return _Drive((carrier, planet, crank, rocker), theta2_rate, theta2_rate_derivative)
+
+
+def oscillatory_link_motion(
+    geometry: OscillatoryGeometry, theta2_mid: float, state: OscillatoryState
+) -> tuple[BodyMotion, ...]:
+    """Carrier, planet, PR, RS and ST of mechanism 1 for ``state`` (solved for ``geometry``).
+
+    ``theta2_mid`` is the drive's mid-swing angle (theta3 = theta2 - theta2_mid).
+    """
+    # theta3 from the tip, T = S + ST e(theta3): no trigonometry of arrays.
+    cos3 = (state.tip_x - geometry.pivot_offset_m) / geometry.tail_link_m
+    sin3 = state.tip_y / geometry.tail_link_m
+    drive = _drive_motion(geometry, theta2_mid, state, cos3, sin3)
+    tail = _turning(
+        "tail_link", 0.5 * geometry.tail_link_m,
+        drive.theta2_rate, drive.theta2_rate_derivative, cos3, sin3,
+    )  # fmt: skip
+    return (*drive.bodies, tail)
+
+
+def undulatory_link_motion(
+    geometry: UndulatoryGeometry, theta2_mid: float, state: UndulatoryState
+) -> tuple[BodyMotion, ...]:
+    """The drive, SW, the slider A, AV and VT of mechanism 2 for ``state``."""
+    g = geometry
+    theta3 = np.asarray(state.theta3)
+    cos3, sin3 = np.cos(theta3), np.sin(theta3)
+    drive = _drive_motion(g, theta2_mid, state, cos3, sin3)
+    rate3, rate3_derivative = drive.theta2_rate, drive.theta2_rate_derivative
+    u, u_rate = state.pin_u_distance, state.pin_u_distance_rate
+    a_rate = state.slider_a_distance_rate
+    rate4, rate5 = state.theta4_dot, state.theta5_dot
+    # The loop's own directions: A->U (theta4) from U - A, V->W (theta5) from W - V.
+    cos4 = (state.slider_a_distance + g.pin_offset_m * cos3) / u
+    sin4 = g.pin_offset_m * sin3 / u
+    av, vw = g.slotted_link_m, g.fin_joint_offset_m
+    cos5 = (g.swing_arm_m * cos3 + state.slider_a_distance - av * cos4) / vw
+    sin5 = (g.swing_arm_m * sin3 - av * sin4) / vw
+    pin_along = g.pin_offset_m * rate3 * rate3
+    pin_across = g.pin_offset_m * rate3_derivative
+    arm_along = g.swing_arm_m * rate3 * rate3
+    arm_across = g.swing_arm_m * rate3_derivative
+    slot_squared = av * rate4 * rate4
+    fin_joint_squared = vw * rate5 * rate5
+    coriolis = 2.0 * u_rate * rate4
+    u_squared = u * rate4 * rate4
+    r1 = coriolis * sin4 + u_squared * cos4 - pin_across * sin3 - pin_along * cos3
+    r2 = -coriolis * cos4 + u_squared * sin4 + pin_across * cos3 - pin_along * sin3
+    r3 = arm_across * sin3 + arm_along * cos3 - slot_squared * cos4 - fin_joint_squared * cos5
+    r4 = -arm_across * cos3 + arm_along * sin3 - slot_squared * sin4 - fin_joint_squared * sin5
+    p = r2 * cos4 - r1 * sin4
+    s = r3 * cos5 + r4 * sin5
+    sin45 = sin4 * cos5 - cos4 * sin5
+    cos45 = cos4 * cos5 + sin4 * sin5
+    lever = av / u
+    a_rate_derivative = (s - lever * sin45 * p) / (cos5 - lever * sin4 * sin45)
+    rate4_derivative = (p - a_rate_derivative * sin4) / u
+    rate5_derivative = (
+        r3 * sin5 - r4 * cos5 - a_rate_derivative * sin5 - av * cos45 * rate4_derivative
+    ) / vw
+
+    arm = _turning("swing_arm", 0.5 * g.swing_arm_m, rate3, rate3_derivative, cos3, sin3)
+    zero = 0.0 * rate4
+    # A = (OS - AS, 0): it moves against AS.
+    slider = BodyMotion("slider", -a_rate, zero, -a_rate_derivative, zero, zero, zero)
+    # V relative to A, and VT's middle relative to V: AV's middle is halfway from A to V.
+    slot = _turning("", av, rate4, rate4_derivative, cos4, sin4)
+    fin = _turning("", 0.5 * g.fin_link_m, rate5, rate5_derivative, cos5, sin5)
+    slotted = BodyMotion(
+        "slotted_link",
+        slider.velocity_x + 0.5 * slot.velocity_x, 0.5 * slot.velocity_y,
+        slider.acceleration_x + 0.5 * slot.acceleration_x, 0.5 * slot.acceleration_y,
+        rate4, rate4_derivative,
+    )  # fmt: skip
+    fin_link = BodyMotion(
+        "fin_link",
+        slider.velocity_x + slot.velocity_x + fin.velocity_x, slot.velocity_y + fin.velocity_y,
+        slider.acceleration_x + slot.acceleration_x + fin.acceleration_x,
+        slot.acceleration_y + fin.acceleration_y,
+        rate5, rate5_derivative,
+    )  # fmt: skip
+    return (*drive.bodies, arm, slider, slotted, fin_link)
