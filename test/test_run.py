@@ -72,8 +72,9 @@ def test_a_subset_of_nodes_on_this_computer(ros_domain, start_node):
     assert completed.returncode == 0, output
     assert "kinematics up" in output and "monitor up" in output
     assert "driver up" not in output  # the driver is the other process's
-    last = next(line for line in output.splitlines() if line.startswith("fishtail-run: last state"))
-    assert " OK: symmetric" in last, output  # the console's command reached that driver
+    # The console's command reached that driver: the tail beat and beats were judged. (Not
+    # necessarily the last one: on a loaded machine a gap in the input leaves a beat unjudged.)
+    assert any(" OK: symmetric" in line for line in output.splitlines()), output
     assert driver.returncode is None
 
 
