@@ -10,12 +10,20 @@ the firmware's source (hbrobotics/ros_arduino_bridge ``ROSArduinoBridge.ino`` an
   16-bit ``atoi`` (``1.9`` -> 1, junk -> 0, 40000 -> -25536); argument buffers hold
   ``arg_buffer_bytes`` - 1 characters (an overflow, undefined behaviour on the board, is cut off
   and reported through ``warn``);
-- ``m`` targets are encoder ticks per PID frame, taken over at the next frame (every
-  ``1000 // PID_RATE`` ms); ``m 0 0`` stops at once and resets the PID; ``r`` zeroes the encoders
-  and the PID target; auto-stop strictly more than 2000 ms after the last ``m``/``o``;
-- encoder counts are signed 32-bit and wrap (``encoder_offset`` starts them near the wrap);
-- the motors are :class:`fishtail_driver.motor_model.SimulatedMotor` (first-order speed lag: the
-  board's PID is taken as ideal up to that lag).
+- the speed loop is :class:`fishtail_driver.firmware_pid.FirmwareSpeedLoop` (the firmware's
+  ``diff_controller.h`` in AVR integer arithmetic) on the frame grid of
+  :class:`~fishtail_driver.firmware_pid.FrameTimer` (every ``1000 // PID_RATE`` ms): ``m``
+  targets are ticks per frame, taken over at the next frame; ``m 0 0`` writes PWM 0 at once and
+  resets and stops the loop; ``r`` zeroes the encoders and resets the loop (targets 0); ``o``
+  resets and stops it and writes the PWM; the auto-stop, strictly more than 2000 ms after the
+  last ``m``/``o``, writes PWM 0 and stops the loop without a reset, so that the next frame's
+  stopped-loop test resets it if a channel was moving; ``u`` sets the gains (four of them, Ko
+  not 0: anything else is refused, see :meth:`Firmware._update_gains`);
+- every PWM the board writes drives the channel's motor (:mod:`fishtail_driver.board_motors`:
+  ``ideal``, the first-order lag following the loop's target; ``first-order``, the lag driven by
+  the PWM; ``dc``, the DC gear motor at duty PWM / 255), and the frames are recorded in
+  :attr:`Firmware.frames`;
+- encoder counts are signed 32-bit and wrap (``encoder_offset`` starts them near the wrap).
 
 >>> board = Firmware(FirmwareConfig(), now=0.0)
 >>> [board.execute(command, 0.0) for command in map(board.feed_byte, b"b\r") if command]
@@ -28,8 +36,9 @@ import collections
 import dataclasses
 from collections.abc import Callable
 
-from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
-from fishtail_driver.protocol import AUTO_STOP_INTERVAL_MS, PWM_MAX, Scale, wrap_int16, wrap_int32
+from fishtail_driver.board_motors import MOTOR_KINDS, make_motor
+from fishtail_driver.firmware_pid import FirmwareSpeedLoop, FrameTimer, PidGains
+from fishtail_driver.protocol import AUTO_STOP_INTERVAL_MS, Scale, wrap_int16, wrap_int32
 
 VARIANTS = ("hbrobotics", "joshnewans")
 _ATOI_SPACE = b" \t\n\v\f\r"
@@ -64,11 +73,14 @@ class FirmwareConfig:
     max_speed_rad_s: float = 20.0
     encoder_offset: int = 0
     arg_buffer_bytes: int = 32
+    motor: str = "ideal"
 
     def __post_init__(self) -> None:
         """Reject meaningless settings with the reason."""
         if self.variant not in VARIANTS:
             raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.motor not in MOTOR_KINDS:
+            raise ValueError(f"motor must be one of {MOTOR_KINDS}, got {self.motor!r}")
         if self.baud < 1:
             raise ValueError(f"baud must be >= 1, got {self.baud}")
         if self.arg_buffer_bytes < 2:
@@ -101,42 +113,45 @@ class Firmware:
         """Power the board on at ``now`` with the motors at rest."""
         self.config = config
         self.scale = Scale(config.counts_per_revolution, config.gear_ratio, config.pid_rate_hz)
-        motor = MotorParameters(
-            time_constant_s=config.time_constant_s,
-            max_speed_rad_s=config.max_speed_rad_s,
-            counts_per_revolution=config.counts_per_revolution,
-            gear_ratio=config.gear_ratio,
-        )
-        self.motors = [SimulatedMotor(motor), SimulatedMotor(motor)]
+        self.motors = [
+            make_motor(config.motor, self.scale, config.time_constant_s, config.max_speed_rad_s)
+            for _ in range(2)
+        ]
         self.time = now
         self._warn = warn
         self.argument_overflows = 0
+        #: ``u`` commands refused (see :meth:`_update_gains`).
+        self.rejected_gains = 0
         #: (board time, left, right) of every ``e`` answered: the truth a host's samples are
         #: checked against (bounded: the newest readings only).
         self.encoder_reads: collections.deque[tuple[float, int, int]] = collections.deque(
             maxlen=100_000
         )
+        #: (board time, (left, right) counts read, (left, right) PWM after it) of every PID
+        #: frame (bounded): what the loop saw and did.
+        self.frames: collections.deque[tuple[float, tuple[int, int], tuple[int, ...]]] = (
+            collections.deque(maxlen=100_000)
+        )
         self.autostop_at: float | None = None
         #: When the auto-stop fired (board clock), for tests: it must not while motion is wanted.
         self.auto_stop_times: list[float] = []
-        self.next_pid = now + self.scale.frame_s
+        self.timer = FrameTimer(self.scale.frame_ms, start_s=now)
+        self.offsets = [config.encoder_offset, config.encoder_offset]
+        self.loop = FirmwareSpeedLoop(self._counts())
         self.power_on(now, counts=config.encoder_offset)
 
     # --- state -----------------------------------------------------------------------------
     def power_on(self, now: float, counts: int = 0) -> None:
-        """(Re)start the firmware: encoders read ``counts``, PID idle, parser empty.
+        """(Re)start the firmware: encoders read ``counts``, loop reset and stopped, PWM 0.
 
         The motors keep their physical state (a reset does not stop a spinning shaft at once).
         """
         self.advance(now)
-        for motor in self.motors:
-            motor.command(0.0)
         self.offsets = [counts - motor.encoder_counts() for motor in self.motors]
-        self.targets = [0, 0]
-        self.moving = False
+        self.loop = FirmwareSpeedLoop(self._counts())
+        self._drive_motors()
         self.autostop_at = None
-        self.next_pid = now + self.scale.frame_s
-        self.pid_gains: tuple[int, int, int, int] = (20, 12, 0, 50)
+        self.timer.restart(now)
         self._reset_parser()
 
     def _reset_parser(self) -> None:
@@ -145,33 +160,56 @@ class Firmware:
         self._argv = [bytearray(), bytearray()]
         self._raw = bytearray()
 
+    @property
+    def targets(self) -> list[int]:
+        """The loop's targets (ticks per frame), left and right."""
+        return [point.target_ticks_per_frame for point in self.loop.set_points]
+
+    @property
+    def moving(self) -> bool:
+        """Whether the speed loop runs (the firmware's ``moving``)."""
+        return self.loop.moving
+
+    @property
+    def gains(self) -> PidGains:
+        """The loop's gains in force."""
+        return self.loop.gains
+
     def encoder(self, channel: int) -> int:
         """The board's counter (signed 32-bit) for channel 0 (left) or 1 (right)."""
         return wrap_int32(self.motors[channel].encoder_counts() + self.offsets[channel])
 
+    def _counts(self) -> tuple[int, int]:
+        return self.encoder(0), self.encoder(1)
+
+    def _drive_motors(self) -> None:
+        """Hand the motors what ``setMotorSpeeds()`` last wrote (called wherever it writes)."""
+        for motor, pwm, target in zip(self.motors, self.loop.pwm, self.targets, strict=True):
+            motor.drive(pwm, target, self.loop.moving)
+
     def advance(self, now: float) -> None:
-        """Run PID frames and the auto-stop check up to ``now``."""
+        """Run PID frames and the auto-stop check up to ``now``.
+
+        At the same millisecond the frame comes first: the firmware's main loop runs
+        ``updatePID()`` before the auto-stop test.
+        """
         while True:
-            event = self.next_pid
+            frame_at = self.timer.next_s
             stop_at = self.autostop_at
-            is_stop = stop_at is not None and stop_at < event
-            if stop_at is not None and is_stop:
-                event = stop_at
-            if event > now:
-                break
-            self._move_to(event)
-            if is_stop:
-                self.auto_stop_times.append(event)
+            if stop_at is not None and stop_at < frame_at and stop_at <= now:
+                self._move_to(stop_at)
+                self.auto_stop_times.append(stop_at)
                 self.autostop_at = None
-                self.moving = False
-                self.targets = [0, 0]
-                for motor in self.motors:
-                    motor.command(0.0)
-            else:
-                if self.moving:
-                    for motor, target in zip(self.motors, self.targets, strict=True):
-                        motor.command(self.scale.speed_from_ticks(target))
-                self.next_pid += self.scale.frame_s
+                self.loop.auto_stop()
+                self._drive_motors()
+                continue
+            if frame_at > now:
+                break
+            for when in self.timer.due(frame_at):
+                self._move_to(when)
+                counts = self._counts()
+                self.frames.append((when, counts, self.loop.frame(counts)))
+                self._drive_motors()
         self._move_to(now)
 
     def _move_to(self, when: float) -> None:
@@ -219,38 +257,49 @@ class Firmware:
             prefix = " " if self.config.variant == "hbrobotics" else ""
             return f"{prefix}{self.config.baud}\r\n".encode("ascii")
         if cmd == "e":
-            left, right = self.encoder(0), self.encoder(1)
+            left, right = self._counts()
             self.encoder_reads.append((now, left, right))
             return f"{left} {right}\r\n".encode("ascii")
         if cmd == "r":
             self.offsets = [-motor.encoder_counts() for motor in self.motors]
-            self.targets = [0, 0]
+            self.loop.reset_encoders()
             return b"OK\r\n"
         if cmd == "m":
             self.autostop_at = now + auto_stop_s
-            if arg1 == 0 and arg2 == 0:
-                for motor in self.motors:
-                    motor.command(0.0)
-                self.moving = False
-            else:
-                self.moving = True
-            self.targets = [arg1, arg2]
+            self.loop.command((arg1, arg2), self._counts())
+            if not self.loop.moving:  # m 0 0 wrote PWM 0; other targets wait for the frame
+                self._drive_motors()
             return b"OK\r\n"
         if cmd == "o" and self.config.variant == "joshnewans":
             self.autostop_at = now + auto_stop_s
-            self.moving = False
-            self.targets = [0, 0]
-            for motor, pwm in zip(self.motors, (arg1, arg2), strict=True):
-                pwm = min(max(pwm, -PWM_MAX), PWM_MAX)
-                motor.command(pwm / PWM_MAX * self.config.max_speed_rad_s)
+            self.loop.raw_pwm((arg1, arg2), self._counts())
+            self._drive_motors()
             return b"OK\r\n"
         if cmd == "u":
-            tokens = [token for token in command.argv1.split(b":") if token]
-            if len(tokens) > 4:
-                self._warn("u with more than 4 gains: pid_args overflow on the board")
-            gains = list(self.pid_gains)
-            for index, token in enumerate(tokens[:4]):
-                gains[index] = atoi16(token)
-            self.pid_gains = (gains[0], gains[1], gains[2], gains[3])
-            return b"OK\r\n"
+            return self._update_gains(command.argv1)
+        return b"Invalid Command\r\n"
+
+    def _update_gains(self, argument: bytes) -> bytes:
+        """``u Kp:Kd:Ki:Ko``: exactly four gains, Ko not 0; anything else is refused.
+
+        The firmware splits the argument at colons (``strtok_r``: empty fields vanish) into a local
+        ``int pid_args[4]`` and answers ``OK`` whatever it got: fewer than four gains leave the
+        rest uninitialised stack bytes, more overflow the array, and Ko 0 divides by zero at every
+        frame (no trap on the AVR: a garbage PWM). Emulating garbage would hide the host's mistake
+        behind an ``OK``, so the emulation keeps the gains, reports the reason through ``warn``
+        and answers ``Invalid Command`` instead: a host sending such gains is wrong on any board.
+        """
+        tokens = [token for token in argument.split(b":") if token]
+        reason = None
+        if len(tokens) != 4:
+            reason = f"{len(tokens)} gains instead of Kp:Kd:Ki:Ko (pid_args[4] on the board)"
+        else:
+            kp, kd, ki, ko = (atoi16(token) for token in tokens)
+            if ko == 0:
+                reason = "Ko 0 (the board would divide by zero at every PID frame)"
+            else:
+                self.loop.set_gains(PidGains(kp, kd, ki, ko))
+                return b"OK\r\n"
+        self.rejected_gains += 1
+        self._warn(f"u {argument.decode('ascii', 'backslashreplace')} refused: {reason}")
         return b"Invalid Command\r\n"

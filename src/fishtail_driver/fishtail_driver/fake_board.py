@@ -8,7 +8,11 @@ on exit and while "unplugged"), so a host can be configured with a stable port n
 The firmware's behaviour (parsing quirks, PID frames, auto-stop, wrapping counts) is
 :mod:`fishtail_driver.board_firmware`'s; the pty and the faults are
 :mod:`fishtail_driver.board_pty`'s. ``--variant joshnewans`` answers ``b`` without a leading space
-and knows ``o``; an argument longer than ``--arg-buffer`` - 1 characters is reported on stderr.
+and knows ``o``; ``--motor`` chooses what the firmware's PWM drives
+(:mod:`fishtail_driver.board_motors`: ``ideal``, the default, ``first-order`` or ``dc``, the DC
+gear motor as the simulated backend runs it; with ``--counts-per-rev 64 --gear-ratio 30`` it is
+the Pololu 37D 30:1 with its encoder); an argument longer than ``--arg-buffer`` - 1 characters
+is reported on stderr.
 
 Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply (a slow board; from
 ``--delay-after-s`` on only, and SIGUSR2 switches the delay off and on again, so that a host can
@@ -31,6 +35,7 @@ import signal
 import sys
 
 from fishtail_driver.board_firmware import VARIANTS
+from fishtail_driver.board_motors import MOTOR_KINDS
 from fishtail_driver.board_pty import BoardConfig, FakeBoard
 
 
@@ -52,6 +57,13 @@ def _parser() -> argparse.ArgumentParser:
         choices=VARIANTS,
         default="hbrobotics",
         help="hbrobotics: 'b' -> ' 57600', no 'o'; joshnewans: 'b' -> '57600', 'o' raw PWM",
+    )
+    add(
+        "--motor",
+        choices=MOTOR_KINDS,
+        default="ideal",
+        help="ideal: first-order lag at the loop's target; first-order: the lag driven by the "
+        "PWM; dc: DC gear motor (Pololu 37D, --gear-ratio) at duty PWM/255",
     )
     add("--counts-per-rev", type=int, default=2048, help="encoder counts per motor turn")
     add("--gear-ratio", type=float, default=1.0, help="motor turns per carrier turn")
@@ -87,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
             variant=args.variant,
             counts_per_revolution=args.counts_per_rev,
             gear_ratio=args.gear_ratio,
+            motor=args.motor,
             pid_rate_hz=args.pid_rate,
             time_constant_s=args.time_constant,
             max_speed_rad_s=args.max_speed,
