@@ -8,8 +8,6 @@ Run with `make bench`.
 from __future__ import annotations
 
 import math
-import os
-import time
 import tracemalloc
 
 import numpy as np
@@ -17,19 +15,10 @@ from scipy.optimize import fsolve
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
+from measure import best_of, pin_to_one_core
 
 BATCH = 1_000_000
 SPEED_RAD_S = 4.0
-
-
-def best_of(function, repeats: int) -> float:
-    """Shortest wall time of ``repeats`` calls, in seconds (the least disturbed run)."""
-    best = math.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 #: Per-sample solves that fsolve did not report as converged (printed with the figures).
@@ -78,11 +67,7 @@ def generic_solve_undulatory(g: UndulatoryGeometry, theta3: float, guess: np.nda
 
 def main() -> None:
     """Print the figures."""
-    try:
-        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
-        pinned = "pinned to one core"
-    except (AttributeError, OSError):
-        pinned = "not pinned"
+    pinned = pin_to_one_core()
     print(f"kinematics benchmark ({pinned}), batch of {BATCH:,} carrier angles")
     phi = np.linspace(0.0, 40.0 * math.pi, BATCH)
     oscillatory = OscillatoryTail(OscillatoryGeometry())

@@ -54,6 +54,7 @@ from std_msgs.msg import Float64
 from fishtail_bringup.console import VERDICT_NAMES
 from fishtail_common.testing import claim_domain
 from fishtail_msgs.msg import SymmetryReport, TailState
+from measure import cpu_seconds
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "bench" / "out"
@@ -68,7 +69,6 @@ DISCOVERY_TIMEOUT_S = 20.0
 PROBE_QUEUE_DEPTH = 1000
 #: DiagnosticStatus level the monitor reports while no tail/state reaches it.
 LEVEL_STALE = 3
-TICKS_PER_S = os.sysconf("SC_CLK_TCK")
 
 TARGETS = {
     "one process": {"lost_pct": 0.0, "p99_ms": 1.0, "cpu_pct": 30.0},
@@ -109,13 +109,6 @@ sys.exit(driver_module.main())
 
 
 # ---- environment
-
-
-def cpu_seconds(pid: int | str = "self") -> float:
-    """CPU time (utime + stime) of a process from /proc/<pid>/stat, seconds."""
-    with open(f"/proc/{pid}/stat", encoding="ascii") as stream:
-        fields = stream.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICKS_PER_S  # fields 14, 15 of stat
 
 
 # ---- the probe

@@ -51,6 +51,7 @@ from fishtail_common.testing import (
     isolated_ros_environment,
 )
 from fishtail_msgs.msg import TailState
+from measure import cpu_seconds
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "bench" / "out"
@@ -62,14 +63,6 @@ WINDOW_S = 20.0
 #: Odometry of the window's last samples may still be in flight when it closes.
 IN_FLIGHT_S = 0.3
 START_TIMEOUT_S = 30.0
-TICKS_PER_S = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_seconds(pid: int | str = "self") -> float:
-    """CPU time (utime + stime) of a process from /proc/<pid>/stat, seconds."""
-    with open(f"/proc/{pid}/stat", encoding="ascii") as stream:
-        fields = stream.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICKS_PER_S  # fields 14, 15 of stat
 
 
 def stamps_and_receipts(recorder: Recorder, window: tuple[int, int]) -> tuple[np.ndarray, ...]:

@@ -93,3 +93,14 @@ def test_a_diverging_run_is_refused() -> None:
     model = SwimModel(FishParameters(body_mass_kg=1e-3, added_mass_surge_kg=0.0), drive)
     with pytest.raises(SwimInputError, match="diverged"):
         simulate(model, 1, 1.0, 400)
+
+
+def test_a_tail_shared_by_the_batch_is_solved_once_and_reaches_every_fish() -> None:
+    # One carrier speed: the engine's samples have one column, broadcast to the three fish.
+    drive = EngineTailDrive(make_tail(UndulatoryGeometry()), constant_carrier_speed(6.0))
+    model = SwimModel(FishParameters(drag_coefficient=np.array([0.2, 0.3, 0.6])), drive)
+    assert fused.tail_samples(model, np.arange(5) * STEP_S, 3).strides[1] == 0
+    compiled = simulate(model, 3, STEP_S, 300).state[-1]
+    reference = _numpy_loop(model, 3, 300)
+    np.testing.assert_allclose(compiled, reference, rtol=0, atol=1e-11 * np.abs(reference).max())
+    assert compiled[0, 3] > compiled[1, 3] > compiled[2, 3] > 0.0  # less drag, faster

@@ -55,15 +55,21 @@ def parameter_table(model: SwimModel, fish_count: int) -> FloatArray:
 
 
 def tail_samples(model: SwimModel, time_s: npt.ArrayLike, fish_count: int) -> FloatArray:
-    """The tail of every fish at ``time_s`` (K,): shape (K, N, 9), accelerations 0 without chord."""
+    """The tail of every fish at ``time_s`` (K,): shape (K, N, 9), accelerations 0 without chord.
+
+    A tail motion the whole batch shares (one carrier speed and tail for fish that differ only in
+    their bodies, the usual sweep) is solved once and broadcast: a read-only view with stride 0
+    across the fish.
+    """
     column_time = np.asarray(time_s, dtype=float).reshape(-1, 1)
-    samples = np.zeros((column_time.size, fish_count, TAIL_COLUMNS))
-    for column, values in enumerate(model.drive.sample(column_time)):
-        samples[:, :, column] = values
+    fields = list(model.drive.sample(column_time))
     if model.has_recoil:
-        for column, values in enumerate(model.drive.acceleration(column_time), start=6):
-            samples[:, :, column] = values
-    return samples
+        fields.extend(model.drive.acceleration(column_time))
+    width = max(np.shape(values)[-1] for values in fields)
+    samples = np.zeros((column_time.size, width, TAIL_COLUMNS))
+    for column, values in enumerate(fields):
+        samples[:, :, column] = values
+    return np.broadcast_to(samples, (column_time.size, fish_count, TAIL_COLUMNS))
 
 
 def block_steps(fish_count: int) -> int:
