@@ -8,6 +8,12 @@ derivatives d2G/dphi2, d2theta/dphi2; at any speed they scale with phi_dot and p
 conventions: those of the engine (O at the ring-gear centre, x back, y left, angles
 counter-clockwise). e(a) = (cos a, sin a), e'(a) = (-sin a, cos a).
 
+Two kinds of body: :class:`PlaneMotion` gives G's velocity and acceleration vectors (PR, and
+mechanism 2's slider, AV and VT); :class:`TurningMotion` is a body whose centre of mass circles a
+fixed point at the body's own angular speed (the carrier, the planet, RS, ST, SW), for which the
+radius and the angular rates say all the kinetic energy needs. Each gives its terms of the reduced
+inertia (``reduced_inertia_terms``), so that a caller sums over bodies without asking their kind.
+
 The accelerations are analytic: differentiating a loop's velocity equations once more gives the
 same linear system in the second derivatives, with the squared rates on the right-hand side.
 
@@ -43,15 +49,17 @@ load) do not depend on the mechanism.
 >>> bodies = tail.link_motion(tail.solve(0.0, 1.0))
 >>> [body.link for body in bodies]
 ['carrier', 'planet', 'crank_link', 'rocker_link', 'tail_link']
->>> planet = bodies[1]  # its centre (0, R/2) moves to -x and accelerates towards O
->>> float(planet.velocity_x), float(planet.acceleration_y), float(planet.angular_velocity)
-(-0.05, -0.05, -1.0)
+>>> [abs(float(body.angular_velocity)) for body in bodies]  # the stroke's end: the links stop
+[1.0, 1.0, 0.0, 0.0, 0.0]
+>>> energy, change = bodies[1].reduced_inertia_terms(0.1, 0.0)  # the planet: m (R/2)^2, constant
+>>> round(float(energy), 12), abs(float(change))
+(0.00025, 0.0)
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, TypeAlias
 
 import numpy as np
 
@@ -64,8 +72,8 @@ from fishtail_kinematics.engine.geometry import (
 )
 
 
-class BodyMotion(NamedTuple):
-    """One rigid body of a solved state; floats or arrays shaped like the state's fields.
+class PlaneMotion(NamedTuple):
+    """A body in general plane motion; floats or arrays shaped like the state's fields.
 
     ``link`` names it as :mod:`~fishtail_kinematics.engine.link_inertia` does. Velocities [m/s]
     and accelerations [m/s^2] are those of its centre of mass, in the frame at O; the angular
@@ -80,18 +88,52 @@ class BodyMotion(NamedTuple):
     angular_velocity: Real
     angular_acceleration: Real
 
+    def reduced_inertia_terms(self, mass_kg: float, inertia_kg_m2: float) -> tuple[Real, Real]:
+        """Its m |v|^2 + I omega^2 and d/dt of it over phi_dot (m v.a + I omega alpha, twice)."""
+        vx, vy, rate = self.velocity_x, self.velocity_y, self.angular_velocity
+        energy = mass_kg * (vx * vx + vy * vy) + inertia_kg_m2 * (rate * rate)
+        change = (2.0 * mass_kg) * (vx * self.acceleration_x + vy * self.acceleration_y) + (
+            2.0 * inertia_kg_m2
+        ) * (rate * self.angular_acceleration)
+        return energy, change
 
-def _turning(
-    link: str, distance_m: float, rate: Real, rate_derivative: Real, cos: Real, sin: Real
-) -> BodyMotion:
-    """A body turning about a fixed pivot with its centre of mass at distance_m along e(angle)."""
+
+class TurningMotion(NamedTuple):
+    """A body whose centre of mass circles a fixed point at the body's own angular speed.
+
+    A link turning about a fixed pivot (RS, ST, SW, the carrier about O), or the planet, whose
+    centre circles O at phi_dot while it spins at -phi_dot: |v_G| = r |omega| and
+    v_G . a_G = r^2 omega alpha, so its energy is (I + m r^2) omega^2 / 2 and no vector is needed.
+    """
+
+    link: str
+    radius_m: float  # from the fixed point to the centre of mass
+    angular_velocity: Real
+    angular_acceleration: Real
+
+    def reduced_inertia_terms(self, mass_kg: float, inertia_kg_m2: float) -> tuple[Real, Real]:
+        """(I + m r^2) omega^2 and 2 (I + m r^2) omega alpha."""
+        weight = inertia_kg_m2 + mass_kg * self.radius_m**2
+        rate = self.angular_velocity
+        return weight * (rate * rate), (2.0 * weight) * (rate * self.angular_acceleration)
+
+
+#: The motion of one body of a solved state.
+BodyMotion: TypeAlias = PlaneMotion | TurningMotion
+
+
+def _turning_point(
+    distance_m: float, rate: Real, rate_derivative: Real, cos: Real, sin: Real
+) -> tuple[Real, Real, Real, Real]:
+    """Velocity and acceleration (x, y, x, y) of a point turning about a point at rest.
+
+    The point lies at ``distance_m`` along e(angle), the angle turning at ``rate``.
+    """
     along = distance_m * rate * rate
     across = distance_m * rate_derivative
-    return BodyMotion(
-        link,
+    return (
         -distance_m * rate * sin, distance_m * rate * cos,
         -across * sin - along * cos, across * cos - along * sin,
-        rate, rate_derivative,
     )  # fmt: skip
 
 
@@ -129,26 +171,24 @@ def _drive_motion(
     b = op_rate_derivative + crank_squared * sin1 + rocker_squared * sin2
     theta1_rate_derivative = (a * cos2 + b * sin2) / (g.crank_link_m * sin12)
     theta2_rate_derivative = (b * sin1 - a * cos1) / (g.rocker_link_m * sin12)
-    # Carrier (centre of mass C/2) and planet (centre C), from OP and OP_dot: no trigonometry.
-    quarter_x, quarter_y = -0.25 * speed * op, 0.25 * op_rate
-    quarter_ax, quarter_ay = -0.25 * speed * op_rate, 0.25 * op_rate_derivative
-    zero = 0.0 * speed
-    carrier = BodyMotion("carrier", quarter_x, quarter_y, quarter_ax, quarter_ay, speed, zero)
-    planet = BodyMotion(
-        "planet", 2.0 * quarter_x, 2.0 * quarter_y, 2.0 * quarter_ax, 2.0 * quarter_ay,
-        -speed, zero,
-    )  # fmt: skip
-    rocker = _turning(
-        "rocker_link", 0.5 * g.rocker_link_m, theta2_rate, theta2_rate_derivative, cos2, sin2
+    # PR's middle is halfway between P = (0, OP) and R, which turns about S.
+    r_vx, r_vy, r_ax, r_ay = _turning_point(
+        g.rocker_link_m, theta2_rate, theta2_rate_derivative, cos2, sin2
     )
-    # PR's middle is halfway between P = (0, OP) and R, whose motion is twice the rocker's middle.
-    crank = BodyMotion(
+    crank = PlaneMotion(
         "crank_link",
-        rocker.velocity_x, 0.5 * op_rate + rocker.velocity_y,
-        rocker.acceleration_x, 0.5 * op_rate_derivative + rocker.acceleration_y,
+        0.5 * r_vx, 0.5 * (op_rate + r_vy), 0.5 * r_ax, 0.5 * (op_rate_derivative + r_ay),
         -theta1_rate, -theta1_rate_derivative,
     )  # fmt: skip
-    return _Drive((carrier, planet, crank, rocker), theta2_rate, theta2_rate_derivative)
+    zero = 0.0 * speed
+    quarter = 0.25 * g.ring_radius_m
+    bodies = (
+        TurningMotion("carrier", quarter, speed, zero),  # centre of mass C/2
+        TurningMotion("planet", 2.0 * quarter, -speed, zero),  # centre C, spinning at -phi_dot
+        crank,
+        TurningMotion("rocker_link", 0.5 * g.rocker_link_m, theta2_rate, theta2_rate_derivative),
+    )
+    return _Drive(bodies, theta2_rate, theta2_rate_derivative)
 
 
 def oscillatory_link_motion(
@@ -162,10 +202,9 @@ def oscillatory_link_motion(
     cos3 = (state.tip_x - geometry.pivot_offset_m) / geometry.tail_link_m
     sin3 = state.tip_y / geometry.tail_link_m
     drive = _drive_motion(geometry, theta2_mid, state, cos3, sin3)
-    tail = _turning(
-        "tail_link", 0.5 * geometry.tail_link_m,
-        drive.theta2_rate, drive.theta2_rate_derivative, cos3, sin3,
-    )  # fmt: skip
+    tail = TurningMotion(
+        "tail_link", 0.5 * geometry.tail_link_m, drive.theta2_rate, drive.theta2_rate_derivative
+    )
     return (*drive.bodies, tail)
 
 
@@ -210,24 +249,20 @@ def undulatory_link_motion(
         r3 * sin5 - r4 * cos5 - a_rate_derivative * sin5 - av * cos45 * rate4_derivative
     ) / vw
 
-    arm = _turning("swing_arm", 0.5 * g.swing_arm_m, rate3, rate3_derivative, cos3, sin3)
+    arm = TurningMotion("swing_arm", 0.5 * g.swing_arm_m, rate3, rate3_derivative)
     zero = 0.0 * rate4
-    # A = (OS - AS, 0): it moves against AS.
-    slider = BodyMotion("slider", -a_rate, zero, -a_rate_derivative, zero, zero, zero)
-    # V relative to A, and VT's middle relative to V: AV's middle is halfway from A to V.
-    slot = _turning("", av, rate4, rate4_derivative, cos4, sin4)
-    fin = _turning("", 0.5 * g.fin_link_m, rate5, rate5_derivative, cos5, sin5)
-    slotted = BodyMotion(
+    # A = (OS - AS, 0): it moves against AS. V relative to A, and VT's middle relative to V.
+    slider = PlaneMotion("slider", -a_rate, zero, -a_rate_derivative, zero, zero, zero)
+    v_vx, v_vy, v_ax, v_ay = _turning_point(av, rate4, rate4_derivative, cos4, sin4)
+    g_vx, g_vy, g_ax, g_ay = _turning_point(0.5 * g.fin_link_m, rate5, rate5_derivative, cos5, sin5)
+    slotted = PlaneMotion(
         "slotted_link",
-        slider.velocity_x + 0.5 * slot.velocity_x, 0.5 * slot.velocity_y,
-        slider.acceleration_x + 0.5 * slot.acceleration_x, 0.5 * slot.acceleration_y,
+        0.5 * v_vx - a_rate, 0.5 * v_vy, 0.5 * v_ax - a_rate_derivative, 0.5 * v_ay,
         rate4, rate4_derivative,
     )  # fmt: skip
-    fin_link = BodyMotion(
+    fin_link = PlaneMotion(
         "fin_link",
-        slider.velocity_x + slot.velocity_x + fin.velocity_x, slot.velocity_y + fin.velocity_y,
-        slider.acceleration_x + slot.acceleration_x + fin.acceleration_x,
-        slot.acceleration_y + fin.acceleration_y,
+        v_vx + g_vx - a_rate, v_vy + g_vy, v_ax + g_ax - a_rate_derivative, v_ay + g_ay,
         rate5, rate5_derivative,
     )  # fmt: skip
     return (*drive.bodies, arm, slider, slotted, fin_link)
