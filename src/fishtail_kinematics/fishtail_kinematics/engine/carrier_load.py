@@ -99,21 +99,28 @@ class CarrierLoadModel:
 
     def _blocks(self, angle: FloatArray) -> Iterator[tuple[slice, _Block]]:
         """J, J' and the load ratios of a flat array of angles, a block at a time."""
+        if angle.size == 1:
+            # One angle (a simulator's step): the engine's float path, which costs a few us
+            # where its array path's fixed cost is some 100 us.
+            yield slice(0, 1), self._block(float(angle[0]))
+            return
         for start in range(0, angle.size, BLOCK_SAMPLES):
             block = slice(start, start + BLOCK_SAMPLES)
-            # Solved at unit carrier speed, the engine's rates are the velocity ratios.
-            angles = angle[block]
-            state = self.tail.solve(angles, 1.0)
-            inertia: FloatArray = np.zeros(angles.shape)
-            slope: FloatArray = np.zeros(angles.shape)
-            for body in self.tail.link_motion(state):
-                mass, moment = self._weights[body.link]
-                if mass or moment:
-                    energy, change = body.reduced_inertia_terms(mass, moment)
-                    inertia += energy
-                    slope += change
-            ratios = (state.tip_x_dot, state.tip_y_dot, getattr(state, self._fin_rate_field))
-            yield block, _Block(inertia, slope, ratios)
+            yield block, self._block(angle[block])
+
+    def _block(self, angle: Real) -> _Block:
+        # Solved at unit carrier speed, the engine's rates are the velocity ratios.
+        state = self.tail.solve(angle, 1.0)
+        inertia: Real = 0.0
+        slope: Real = 0.0
+        for body in self.tail.link_motion(state):
+            mass, moment = self._weights[body.link]
+            if mass or moment:
+                energy, change = body.reduced_inertia_terms(mass, moment)
+                inertia = inertia + energy
+                slope = slope + change
+        ratios = (state.tip_x_dot, state.tip_y_dot, getattr(state, self._fin_rate_field))
+        return _Block(inertia, slope, ratios)
 
     def reduced_inertia(self, motor_angle: npt.ArrayLike) -> ReducedInertia:
         """J(phi), J'(phi), dT/dphi and dtheta_last/dphi at carrier angles phi [rad]."""
@@ -122,7 +129,8 @@ class CarrierLoadModel:
         for block, values in self._blocks(angle.ravel()):
             columns[0, block] = values.inertia
             columns[1, block] = values.slope
-            columns[2:, block] = values.ratios
+            for row, ratio in enumerate(values.ratios, start=2):
+                columns[row, block] = ratio
         return ReducedInertia(*columns.reshape(5, *angle.shape))
 
     def kinetic_energy(
@@ -179,8 +187,8 @@ class CarrierLoadModel:
 
 
 class _Block(NamedTuple):
-    inertia: FloatArray
-    slope: FloatArray
+    inertia: Real  # J; a float 0 when every body is massless
+    slope: Real  # J'
     ratios: tuple[Real, Real, Real]  # dT_x/dphi, dT_y/dphi, dtheta_fin/dphi
 
 
@@ -241,7 +249,8 @@ def _combine(values: _Block, inputs: _Inputs) -> tuple[FloatArray, ...]:
         if _nonzero(load):
             external = external - load * ratio
     torque = inertial + external
-    return torque, inertial, external, torque * speed, values.inertia
+    parts = (torque, inertial, external, torque * speed, values.inertia)
+    return tuple(np.asarray(part, dtype=float) for part in parts)
 
 
 def carrier_load(
