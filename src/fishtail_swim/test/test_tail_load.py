@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import doctest
 import math
 
 import numpy as np
@@ -11,6 +12,7 @@ from fishtail_kinematics.engine.carrier_load import CarrierLoadModel
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
+from fishtail_swim.dynamics import tail_load
 from fishtail_swim.dynamics.errors import SwimInputError
 from fishtail_swim.dynamics.figures import steady_surge_speed, tail_power
 from fishtail_swim.dynamics.fish import FishParameters
@@ -128,3 +130,8 @@ def test_a_fin_with_chord_is_refused():
 def test_a_non_finite_forward_speed_is_refused(bad):
     with pytest.raises(SwimInputError, match="forward speed must be finite"):
         water_force_on_tail(TAILS[0], FISH, 0.0, 4.0, surge_speed_m_s=bad)
+
+
+def test_doctests():
+    result = doctest.testmod(tail_load)
+    assert result.attempted > 0 and result.failed == 0

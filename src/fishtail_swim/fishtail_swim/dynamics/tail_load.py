@@ -7,9 +7,12 @@ the water on the fish, applied through the fin at the trailing edge T: it is the
 exerts on the tail, the reaction to the tail's push on the water. In the tail frame at O (x
 backward, y left) a body-frame vector (a, b) is (-a, b), so the tail feels (-F_T,x, F_T,y) at T.
 :class:`~fishtail_kinematics.engine.carrier_load.CarrierLoadModel` takes exactly that force (the
-external force acting on the tail) and charges the carrier -F . dT/dphi for it; over a beat the
-carrier then delivers the tail power P_tail = -<F_T . (-Tx_dot, Ty_dot)> of
-:func:`~fishtail_swim.dynamics.figures.tail_power`, which is positive: the tail works on the water.
+external force acting on the tail) and charges the carrier -F . dT/dphi for it: the carrier's
+power against the water is the tail power -F_T . (-Tx_dot, Ty_dot) of
+:func:`~fishtail_swim.dynamics.figures.tail_power`. Swimming (U > 0) its mean is positive: the
+tail works on the water. Held at rest its mean over a revolution is zero: the power is cubic in
+the tail's velocities and a revolution is its own time reversal (the pose depends on phi only
+through R cos(phi + psi)); for mechanism 1 it is zero at every instant, the fin turning about S.
 
 Only the trailing-edge force: a fin with chord (``fin_chord_m`` > 0) adds a recoil at mid-chord
 that is not modelled here, and such a fish is refused. The force acts at T, so it brings no moment
@@ -23,9 +26,13 @@ of shape (K, 1) against N fish): no loop over angles or fish.
 >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
 >>> tail = OscillatoryTail(OscillatoryGeometry())
 >>> angles = np.linspace(0.0, 2 * np.pi, 64, endpoint=False)
->>> water = water_force_on_tail(tail, FishParameters(), angles, 4.0)
->>> power = water.force_x_n * water.tip_velocity_x_m_s + water.force_y_n * water.tip_velocity_y_m_s
->>> bool(power.mean() < 0.0)   # the water resists the tail: the carrier works on it
+>>> def power_on_tail(w):
+...     return w.force_x_n * w.tip_velocity_x_m_s + w.force_y_n * w.tip_velocity_y_m_s
+>>> swimming = water_force_on_tail(tail, FishParameters(), angles, 4.0, surge_speed_m_s=0.17)
+>>> bool(power_on_tail(swimming).mean() < 0.0)   # the water resists: the carrier works on it
+True
+>>> at_rest = water_force_on_tail(tail, FishParameters(), angles, 4.0)
+>>> abs(float(power_on_tail(at_rest).mean())) < 1e-15   # see docs/motor-load.md
 True
 """
 
