@@ -1,6 +1,5 @@
 """``fishtail-swim animate``: the GIF, the frames' geometry, and bad input."""
 
-import doctest
 import math
 from pathlib import Path
 
@@ -10,7 +9,6 @@ from PIL import Image
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics import outline
 from fishtail_swim.dynamics.fish import FishParameters
 from fishtail_swim.dynamics.model import PSI, X, Y
 from fishtail_swim.dynamics.outline import body_to_world
@@ -49,10 +47,6 @@ def test_animate_writes_a_looping_gif_with_a_frame_every_one_over_fps(capsys, tm
         assert gif.n_frames == 11  # t = 0, 0.1, ..., 1.0 s
         assert gif.size == animate.FIGURE_SIZE_PX
         assert gif.info["loop"] == 0 and gif.info["duration"] == 100
-
-
-def test_outline_doctests():
-    assert doctest.testmod(outline).failed == 0
 
 
 def test_body_to_world_turns_by_psi_then_moves_to_c():

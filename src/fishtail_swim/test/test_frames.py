@@ -1,13 +1,11 @@
 """The fish's tf frames (fishtail_swim.frames): the yaw quaternion, the body and the tail frame."""
 
-import doctest
 import math
 
 import numpy as np
 import pytest
 
 from fishtail_common.interface import BODY_FRAME, TAIL_FRAME, WORLD_FRAME
-from fishtail_swim import frames
 from fishtail_swim.frames import (
     TAIL_IN_BODY_ROTATION,
     FrameTransform,
@@ -30,11 +28,6 @@ def rotation_matrix(q):
             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
         ]
     )
-
-
-def test_doctests():
-    result = doctest.testmod(frames)
-    assert result.attempted > 0 and result.failed == 0
 
 
 @pytest.mark.parametrize("psi", ANGLES)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import doctest
 import io
 
 import numpy as np
@@ -14,7 +13,6 @@ from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryG
 from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_swim.dynamics.fish import FishParameters
-from fishtail_swim.offline import motor_load_table
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.motor_load_table import (
     MotorLoadRows,
@@ -90,8 +88,3 @@ def test_written_as_text_and_csv(rows):
     assert table[0] == list(MotorLoadRows._fields)
     assert float(table[2][0]) == 8.0
     assert float(table[3][-1]) == pytest.approx(rows.swimming_peak_power_w[2], rel=1e-11)
-
-
-def test_doctests():
-    result = doctest.testmod(motor_load_table)
-    assert result.attempted > 0 and result.failed == 0

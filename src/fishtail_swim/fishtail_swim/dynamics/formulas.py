@@ -10,8 +10,8 @@ t = (cos th, -sin th) and normal n = (sin th, cos th).
 
 >>> force_x, force_y, moment, tangential, normal, tip_x, tip_y = tip_force(
 ...     1.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0)
->>> force_x, force_y, moment   # a straight fin moving left at 0.5 m/s from rest: ½ m w² forward
-(0.125, -0.0, -0.0)
+>>> [float(value) + 0.0 for value in (force_x, force_y, moment)]  # fin moving left: ½ m w² ahead
+[0.125, 0.0, 0.0]
 """
 
 from __future__ import annotations

@@ -1,0 +1,24 @@
+"""Run the examples in the docstrings of every pure module of fishtail_swim."""
+
+from __future__ import annotations
+
+import pytest
+
+import fishtail_swim
+from fishtail_common.docstring_examples import pure_modules, run_examples
+
+
+def test_the_dynamics_modules_are_found():
+    """The discovery sees the dynamics modules (so the doctest run below cannot be empty)."""
+    names = {name for name, _ in pure_modules(fishtail_swim)}
+    for module in ("formulas", "model", "integrator", "fish", "motor_load"):
+        assert f"fishtail_swim.dynamics.{module}" in names
+
+
+@pytest.mark.parametrize(("name", "has_examples"), pure_modules(fishtail_swim))
+def test_doctests(name, has_examples):
+    """Every docstring example passes; a module with examples does run them."""
+    result = run_examples(name)
+    assert result.failed == 0
+    if has_examples:
+        assert result.attempted > 0
