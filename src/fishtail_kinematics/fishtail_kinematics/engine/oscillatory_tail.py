@@ -1,0 +1,223 @@
+"""Mechanism 1: the Cardan point P drives the slider-rocker PR-RS, and the tail ST turns with RS.
+
+See :mod:`~fishtail_kinematics.engine.mechanisms` for the conventions and the shared surface.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import cast
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_kinematics.engine.errors import (
+    AssemblyError,
+)
+from fishtail_kinematics.engine.geometry import (
+    OSCILLATORY,
+    FloatArray,
+    LinkageState,
+    OscillatoryGeometry,
+    OscillatoryState,
+)
+from fishtail_kinematics.engine.link_motion import (
+    BodyMotion,
+    oscillatory_link_motion,
+)
+from fishtail_kinematics.engine.linkage_points import (
+    OscillatoryPoints,
+    oscillatory_points,
+)
+from fishtail_kinematics.engine.tail_base import (
+    Tail,
+    assembly_violations,
+    check_finite_scalars,
+    zero_dimensional_safe,
+)
+
+
+class OscillatoryTail(Tail):
+    """Mechanism 1: carrier angle to theta1, theta2, theta3, the tail tip and all their rates.
+
+    Construction validates the geometry (raises :class:`AssemblyError` naming the failed condition)
+    and finds the exact swing extremes of theta2, also where theta2 is not monotone in OP.
+    """
+
+    name = OSCILLATORY
+    geometry_type = OscillatoryGeometry
+    state_fields = OscillatoryState._fields
+    joint_names = ("theta1", "theta2", "theta3")
+    fin_joint = None
+    links = ("carrier", "planet", "crank_link", "rocker_link", "tail_link")
+    geometry: OscillatoryGeometry
+
+    def __init__(self, geometry: OscillatoryGeometry) -> None:
+        """Validate ``geometry`` and precompute its swing extremes."""
+        super().__init__(geometry)
+        g = geometry
+        problems = assembly_violations(
+            g.ring_radius_m, g.crank_link_m, g.rocker_link_m, g.pivot_offset_m
+        )
+        if problems:
+            raise AssemblyError("linkage cannot assemble over the stroke: " + "; ".join(problems))
+        self._R = g.ring_radius_m
+        self._PR = g.crank_link_m
+        self._RS = g.rocker_link_m
+        self._ST = g.tail_link_m
+        self._OS = g.pivot_offset_m
+        self._psi = g.phase_rad
+        # Constant part of the numerator of K, so the per-sample path adds only OP^2.
+        self._k_constant = self._RS**2 + self._OS**2 - self._PR**2
+        self.stationary_slider_positions = self._stationary_slider_positions()
+        candidates = [-self._R, self._R, *self.stationary_slider_positions]
+        values = [self.theta2_at(op) for op in candidates]
+        self.theta2_min = min(values)
+        self.theta2_max = max(values)
+        self.slider_at_theta2_min = candidates[values.index(self.theta2_min)]
+        self.slider_at_theta2_max = candidates[values.index(self.theta2_max)]
+        self.theta2_mid = 0.5 * (self.theta2_min + self.theta2_max)
+        self._cos_mid = math.cos(self.theta2_mid)
+        self._sin_mid = math.sin(self.theta2_mid)
+        self.swing_range_rad = self.theta2_max - self.theta2_min
+
+    @property
+    def drive(self) -> OscillatoryTail:
+        """The tail itself: mechanism 1 is the drive."""
+        return self
+
+    @property
+    def monotone(self) -> bool:
+        """Whether theta2 is monotone over the stroke (its extremes then sit at OP = -R and R)."""
+        return not self.stationary_slider_positions
+
+    def _stationary_slider_positions(self) -> list[float]:
+        # d(theta2)/d(OP) vanishes where sin(theta1) = 0, i.e. R lies level with P:
+        # cos(theta2) = (PR - OS)/RS and OP = +-RS sin(theta2). With R = P + (PR, 0) the branch
+        # condition (S - P) x (R - P) = PR OP > 0 keeps only OP > 0 (theta1 = pi would need
+        # RS >= OS + PR, which assembly excludes). Only points strictly inside the stroke matter.
+        offset_sq = self._RS**2 - (self._OS - self._PR) ** 2
+        if offset_sq <= 0.0:
+            return []
+        op = math.sqrt(offset_sq)
+        return [op] if op < self._R else []
+
+    def theta2_at(self, slider_position: float) -> float:
+        """theta2 for a Cardan-point position OP in metres (assembly branch of the spec)."""
+        distance = math.hypot(slider_position, self._OS)
+        k = (slider_position**2 + self._k_constant) / (2.0 * self._RS * distance)
+        return math.atan2(self._OS, slider_position) + math.asin(k)
+
+    def solve(
+        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+    ) -> OscillatoryState:
+        """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
+
+        Floats take the scalar path; anything else is treated as arrays and broadcast together.
+        """
+        if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
+            phi, phi_dot = float(motor_angle), float(motor_velocity)
+            check_finite_scalars(phi, phi_dot)
+            return self._solve_scalar(phi, phi_dot)
+        return zero_dimensional_safe(self._solve_array, motor_angle, motor_velocity)
+
+    def _solve_scalar(self, phi: float, phi_dot: float) -> OscillatoryState:
+        carrier = phi + self._psi
+        op = self._R * math.cos(carrier)
+        op_dot = -self._R * phi_dot * math.sin(carrier)
+        distance = math.hypot(op, self._OS)
+        k = (op * op + self._k_constant) / (2.0 * self._RS * distance)
+        theta2 = math.atan2(self._OS, op) + math.asin(k)
+        sin2 = math.sin(theta2)
+        cos2 = math.cos(theta2)
+        theta1 = math.atan2(op - self._RS * sin2, self._OS + self._RS * cos2)
+        sin1 = math.sin(theta1)
+        cos1 = math.cos(theta1)
+        # sin(theta1 + theta2) vanishes only when PR and RS are collinear, which assembly excludes.
+        denominator = op_dot / (sin1 * cos2 + cos1 * sin2)
+        theta2_dot = denominator * sin1 / self._RS
+        theta1_dot = denominator * sin2 / self._PR
+        theta3 = theta2 - self.theta2_mid
+        sin3 = math.sin(theta3)
+        cos3 = math.cos(theta3)
+        return OscillatoryState(
+            phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
+            self._OS + self._ST * cos3, self._ST * sin3,
+            -self._ST * sin3 * theta2_dot, self._ST * cos3 * theta2_dot,
+        )  # fmt: skip
+
+    def link_points(self, state: LinkageState) -> OscillatoryPoints:
+        """Every joint of ``state`` in the frame at O."""
+        return oscillatory_points(self.geometry, state)
+
+    def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
+        """Carrier, planet, PR, RS and ST (``state`` an oscillatory state)."""
+        return oscillatory_link_motion(
+            self.geometry, self.theta2_mid, cast(OscillatoryState, state)
+        )
+
+    def _solve_array(self, phi: FloatArray, phi_dot: FloatArray) -> OscillatoryState:
+        return self.solve_array_with_tail_trig(phi, phi_dot)[0]
+
+    def solve_array_with_tail_trig(
+        self, phi: FloatArray, phi_dot: FloatArray
+    ) -> tuple[OscillatoryState, FloatArray, FloatArray]:
+        """The array path, with cos and sin of theta3 (mechanism 2 builds on them)."""
+        # np.sin/np.cos/np.hypot cost ~8 ns a sample in float64, the algebra below ~0.5 ns an
+        # operation: so only the carrier angle goes through trigonometry, every other sine and
+        # cosine comes from the angle-sum identities, and the work is done in place.
+        phi, phi_dot = np.broadcast_arrays(phi, phi_dot)
+        carrier = phi + self._psi
+        cos_carrier = np.cos(carrier)
+        sin_carrier = np.sin(carrier, out=carrier)
+        op = np.multiply(cos_carrier, self._R, out=cos_carrier)
+        op_dot = np.multiply(sin_carrier, phi_dot, out=sin_carrier)
+        op_dot *= -self._R
+        # alpha = atan2(OS, OP), beta = asin K, theta2 = alpha + beta.
+        distance = np.square(op)
+        k = distance + self._k_constant
+        distance += self._OS**2
+        np.sqrt(distance, out=distance)
+        k /= distance
+        k *= 0.5 / self._RS
+        cos_alpha = op / distance
+        sin_alpha = np.divide(self._OS, distance, out=distance)
+        theta2 = np.arctan2(self._OS, op)
+        theta2 += np.arcsin(k)
+        cos_beta = 1.0 - k
+        cos_beta *= 1.0 + k
+        np.sqrt(cos_beta, out=cos_beta)
+        sin2 = sin_alpha * cos_beta
+        sin2 += cos_alpha * k
+        cos2 = np.multiply(cos_alpha, cos_beta, out=cos_alpha)
+        cos2 -= np.multiply(sin_alpha, k, out=k)
+        # Joint R relative to P, scaled by 1/PR: (cos theta1, -sin theta1).
+        cos1 = np.multiply(cos2, self._RS / self._PR, out=cos_beta)
+        cos1 += self._OS / self._PR
+        sin1 = np.multiply(sin2, -self._RS / self._PR, out=sin_alpha)
+        sin1 += op * (1.0 / self._PR)
+        theta1 = np.arctan2(sin1, cos1)
+        sin_sum = sin1 * cos2
+        sin_sum += cos1 * sin2
+        rate = np.divide(op_dot, sin_sum, out=sin_sum)
+        theta2_dot = rate * sin1
+        theta2_dot *= 1.0 / self._RS
+        theta1_dot = np.multiply(rate, sin2, out=rate)
+        theta1_dot *= 1.0 / self._PR
+        theta3 = theta2 - self.theta2_mid
+        sin3 = sin2 * self._cos_mid
+        sin3 -= cos2 * self._sin_mid
+        cos3 = np.multiply(cos2, self._cos_mid, out=cos2)
+        cos3 += sin2 * self._sin_mid
+        tip_x = cos3 * self._ST
+        tip_x += self._OS
+        tip_y = sin3 * self._ST
+        tip_x_dot = tip_y * theta2_dot
+        np.negative(tip_x_dot, out=tip_x_dot)
+        tip_y_dot = cos3 * theta2_dot
+        tip_y_dot *= self._ST
+        state = OscillatoryState(
+            phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
+            tip_x, tip_y, tip_x_dot, tip_y_dot,
+        )  # fmt: skip
+        return state, cos3, sin3

@@ -1,0 +1,169 @@
+"""What both tails share: the :class:`Tail` surface, input checks and the drive's assembly.
+
+The mechanisms themselves are :mod:`~fishtail_kinematics.engine.oscillatory_tail` and
+:mod:`~fishtail_kinematics.engine.undulatory_tail`; :mod:`~fishtail_kinematics.engine.mechanisms`
+is where callers get them (``make_tail``).
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, ClassVar, TypeVar
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_common.parameters import ParameterSpec
+from fishtail_kinematics.engine.errors import (
+    InvalidInputError,
+)
+from fishtail_kinematics.engine.geometry import (
+    GEOMETRY_PARAMETERS,
+    FloatArray,
+    Geometry,
+    LinkageState,
+    OscillatoryGeometry,
+    OscillatoryState,
+    UndulatoryGeometry,
+    UndulatoryState,
+)
+from fishtail_kinematics.engine.link_motion import (
+    BodyMotion,
+)
+from fishtail_kinematics.engine.linkage_points import (
+    LinkagePoints,
+)
+
+if TYPE_CHECKING:
+    from fishtail_kinematics.engine.oscillatory_tail import OscillatoryTail
+
+
+def check_finite_scalars(phi: float, phi_dot: float) -> None:
+    """Refuse a non-finite carrier angle or speed on the float path (InvalidInputError)."""
+    if not (math.isfinite(phi) and math.isfinite(phi_dot)):
+        raise InvalidInputError(f"carrier angle {phi!r} and speed {phi_dot!r} must be finite")
+
+
+_State = TypeVar("_State", OscillatoryState, UndulatoryState)
+ScalarOrArray = TypeVar("ScalarOrArray", float, FloatArray)
+
+
+def zero_dimensional_safe(
+    solver: Callable[[FloatArray, FloatArray], _State],
+    motor_angle: npt.ArrayLike,
+    motor_velocity: npt.ArrayLike,
+) -> _State:
+    """``solver`` on arrays, refusing non-finite input, and 0-d in gives 0-d arrays out."""
+    # Non-finite input is refused rather than turned into NaN output. The array paths work in
+    # place (out=...), which numpy refuses for 0-d results: solve those as one-element arrays and
+    # hand back 0-d arrays.
+    phi = np.asarray(motor_angle, float)
+    phi_dot = np.asarray(motor_velocity, float)
+    for name, values in (("carrier angle", phi), ("carrier speed", phi_dot)):
+        if not np.isfinite(values).all():
+            bad = np.flatnonzero(~np.isfinite(values.ravel()))
+            raise InvalidInputError(
+                f"{bad.size} non-finite {name} value(s), the first at flat index {bad[0]}: "
+                f"{values.ravel()[bad[0]]!r}"
+            )
+    if phi.ndim or phi_dot.ndim:
+        return solver(phi, phi_dot)
+    state = solver(phi.reshape(1), phi_dot.reshape(1))
+    return type(state)._make(np.asarray(value).reshape(()) for value in state)
+
+
+class Tail(abc.ABC):
+    """One tail mechanism, as its callers (nodes, command line, analysis, drawing) use it.
+
+    The class attributes describe the mechanism without an instance: its :attr:`name` (the
+    ``mechanism`` parameter's value), its geometry type, the fields of its states, its joints and
+    which joint angle is the fin's (the last link's angle to the body axis).
+    """
+
+    name: ClassVar[str]
+    geometry_type: ClassVar[type[OscillatoryGeometry] | type[UndulatoryGeometry]]
+    #: Every field of a solved state, inputs first.
+    state_fields: ClassVar[tuple[str, ...]]
+    #: The joint angles published as the tail's joint states; each has a rate ``<name>_dot``.
+    joint_names: ClassVar[tuple[str, ...]]
+    #: The angle of a second tail joint (the fin link's), if the mechanism has one.
+    fin_joint: ClassVar[str | None]
+    #: The moving bodies, named as in :mod:`~fishtail_kinematics.engine.link_inertia`.
+    links: ClassVar[tuple[str, ...]]
+
+    def __init__(self, geometry: Geometry) -> None:
+        """Keep ``geometry``; subclasses validate it."""
+        self.geometry = geometry
+
+    @classmethod
+    def parameters(cls) -> tuple[ParameterSpec, ...]:
+        """The specs of the geometry parameters this mechanism uses."""
+        names = cls.geometry_type.__dataclass_fields__
+        return tuple(spec for spec in GEOMETRY_PARAMETERS if spec.name in names)
+
+    @classmethod
+    def joint_rate_names(cls) -> tuple[str, ...]:
+        """The state fields of the joints' rates, in the order of :attr:`joint_names`."""
+        return tuple(f"{name}_dot" for name in cls.joint_names)
+
+    @classmethod
+    def fin_angle_field(cls) -> str:
+        """The state field of the last link's angle to the body axis: theta3 or the fin joint."""
+        return cls.fin_joint or "theta3"
+
+    @property
+    @abc.abstractmethod
+    def drive(self) -> OscillatoryTail:
+        """The mechanism-1 drive (the tail itself for mechanism 1): swing range and extremes."""
+
+    @abc.abstractmethod
+    def solve(
+        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+    ) -> LinkageState:
+        """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
+
+        Floats take the scalar path; anything else is treated as arrays and broadcast together.
+        """
+
+    @abc.abstractmethod
+    def link_points(self, state: LinkageState) -> LinkagePoints:
+        """Every joint of ``state`` (solved by this tail) in the frame at O, for drawing."""
+
+    @abc.abstractmethod
+    def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
+        """Velocity and acceleration of every body of :attr:`links` at ``state``'s steady speed.
+
+        At a carrier speed of 1 rad/s: the velocity ratios and their derivatives in phi.
+        """
+
+
+def assembly_violations(
+    ring_radius_m: float, crank_link_m: float, rocker_link_m: float, pivot_offset_m: float
+) -> list[str]:
+    """Say which assembly conditions of the drive fail, each with its margin; empty if none.
+
+    The loop P-R-S closes for every OP in [-R, R] iff |RS - PR| < OS and OS^2 + R^2 < (RS + PR)^2.
+
+    >>> assembly_violations(0.1, 0.1, 0.234, 0.2)
+    []
+    >>> print(assembly_violations(0.1, 0.1, 0.05, 0.2)[0])  # doctest: +NORMALIZE_WHITESPACE
+    OS^2 + R^2 < (RS + PR)^2 fails: sqrt(OS^2 + R^2) = 0.223607 m exceeds
+    RS + PR = 0.150000 m by 0.073607 m
+    """
+    problems = []
+    link_difference = abs(rocker_link_m - crank_link_m)
+    if not link_difference < pivot_offset_m:
+        problems.append(
+            f"|RS - PR| < OS fails: |RS - PR| = {link_difference:.6f} m is not less than "
+            f"OS = {pivot_offset_m:.6f} m (exceeds it by {link_difference - pivot_offset_m:.6f} m)"
+        )
+    farthest = math.hypot(pivot_offset_m, ring_radius_m)
+    reach = rocker_link_m + crank_link_m
+    if not farthest < reach:
+        problems.append(
+            f"OS^2 + R^2 < (RS + PR)^2 fails: sqrt(OS^2 + R^2) = {farthest:.6f} m exceeds "
+            f"RS + PR = {reach:.6f} m by {farthest - reach:.6f} m"
+        )
+    return problems

@@ -1,0 +1,324 @@
+"""Mechanism 2: mechanism 1's drive, plus the slotted link AV and the second tail joint VT.
+
+See :mod:`~fishtail_kinematics.engine.mechanisms` for the conventions and the shared surface.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import cast
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_kinematics.engine.errors import (
+    AssemblyError,
+    InvalidLengthError,
+    PinOffsetError,
+    SolverError,
+)
+from fishtail_kinematics.engine.geometry import (
+    UNDULATORY,
+    FloatArray,
+    LinkageState,
+    OscillatoryState,
+    Real,
+    UndulatoryGeometry,
+    UndulatoryState,
+)
+from fishtail_kinematics.engine.link_motion import (
+    BodyMotion,
+    undulatory_link_motion,
+)
+from fishtail_kinematics.engine.linkage_points import (
+    UndulatoryPoints,
+    undulatory_points,
+)
+from fishtail_kinematics.engine.oscillatory_tail import OscillatoryTail
+from fishtail_kinematics.engine.tail_base import (
+    ScalarOrArray,
+    Tail,
+    zero_dimensional_safe,
+)
+
+# Loop-closure tolerance of the undulatory solver: how far W may sit off its circle about V.
+_CLOSURE_TOLERANCE_M = 1e-12
+# Samples of the continuation sweep that validates mechanism 2 and seeds its Newton solver.
+_CONTINUATION_SAMPLES = 2001
+# A degree-10 seed is within ~1e-12 m of the root on the report's geometry, so one Newton step
+# reaches rounding level; more steps run only where the closure check asks for them.
+_SEED_POLYNOMIAL_DEGREE = 10
+_MAX_NEWTON_STEPS = 8
+
+
+class UndulatoryTail(Tail):
+    """Mechanism 2: the drive of mechanism 1 plus the slotted link AV and the tail VT.
+
+    The loop A-U-V-W is solved for AS by Newton's method, seeded by a polynomial in theta3 fitted
+    on construction to a continuation sweep from the straight pose; construction therefore also
+    proves that the branch exists over the whole swing, and raises :class:`PinOffsetError`,
+    :class:`AssemblyError` or :class:`SolverError` when it does not.
+
+    >>> tail = UndulatoryTail(UndulatoryGeometry())
+    >>> state = tail.solve(0.0)
+    >>> round(state.theta5, 4)
+    -0.5684
+    """
+
+    name = UNDULATORY
+    geometry_type = UndulatoryGeometry
+    state_fields = UndulatoryState._fields
+    joint_names = ("theta1", "theta2", "theta3", "theta4", "theta5")
+    fin_joint = "theta5"
+    links = (
+        "carrier", "planet", "crank_link", "rocker_link",
+        "swing_arm", "slider", "slotted_link", "fin_link",
+    )  # fmt: skip
+    geometry: UndulatoryGeometry
+
+    def __init__(self, geometry: UndulatoryGeometry) -> None:
+        """Validate ``geometry`` over the whole swing and fit the solver's seed."""
+        super().__init__(geometry)
+        g = geometry
+        limit = g.swing_arm_m - g.fin_joint_offset_m
+        if not 0.0 < g.pin_offset_m < limit:
+            raise PinOffsetError(
+                f"0 < SU < SW - VW fails: SU = {g.pin_offset_m:.6f} m, "
+                f"SW - VW = {limit:.6f} m (outside by "
+                f"{max(-g.pin_offset_m, g.pin_offset_m - limit):.6f} m)"
+            )
+        if not g.fin_joint_offset_m < g.fin_link_m:
+            raise InvalidLengthError(
+                f"VW < VT fails: VW = {g.fin_joint_offset_m:.6f} m, VT = {g.fin_link_m:.6f} m"
+            )
+        self._drive = OscillatoryTail(g.drive())
+        self._SU = g.pin_offset_m
+        self._SW = g.swing_arm_m
+        self._AV = g.slotted_link_m
+        self._VW = g.fin_joint_offset_m
+        self._WT = g.fin_link_m - g.fin_joint_offset_m
+        self._OS = g.pivot_offset_m
+        # |W - V|^2 - VW^2 = (|W - V| - VW)(|W - V| + VW) ~ 2 VW x distance error.
+        self._residual_tolerance = 2.0 * self._VW * _CLOSURE_TOLERANCE_M
+        self.straight_slider_a_distance = self._AV + self._VW - self._SW
+        if self.straight_slider_a_distance <= 0.0:
+            raise AssemblyError(
+                f"AV + VW > SW fails: the straight pose puts A at AS = "
+                f"{self.straight_slider_a_distance:.6f} m, not behind S"
+            )
+        self._fit_seed()
+
+    @property
+    def drive(self) -> OscillatoryTail:
+        """The mechanism-1 drive, whose tail link is SW."""
+        return self._drive
+
+    # The loop, written relative to S with a = AS: A = (-a, 0), U = SU e(theta3),
+    # theta4 = direction A->U, V = A + AV e(theta4), and W = SW e(theta3) must lie at VW from V.
+    def _residual_and_slope(
+        self, a: ScalarOrArray, cos3: ScalarOrArray, sin3: ScalarOrArray
+    ) -> tuple[ScalarOrArray, ScalarOrArray]:
+        dx = a + self._SU * cos3
+        dy = self._SU * sin3
+        # np.hypot is ~15x slower than this and the operands are far from overflow.
+        au = np.sqrt(dx * dx + dy * dy) if isinstance(dx, np.ndarray) else math.hypot(dx, dy)
+        cos4 = dx / au
+        sin4 = dy / au
+        ex = self._SW * cos3 + a - self._AV * cos4
+        ey = self._SW * sin3 - self._AV * sin4
+        residual = ex * ex + ey * ey - self._VW * self._VW
+        # d(cos4)/da = sin4^2/AU, d(sin4)/da = -cos4 sin4/AU.
+        slope = 2.0 * (ex * (1.0 - self._AV * sin4 * sin4 / au) + ey * self._AV * cos4 * sin4 / au)
+        return residual, slope
+
+    def _fit_seed(self) -> None:
+        drive = self.drive
+        theta3_low = drive.theta2_min - drive.theta2_mid
+        theta3_high = drive.theta2_max - drive.theta2_mid
+        half = _CONTINUATION_SAMPLES // 2
+        sweeps = (np.linspace(0.0, theta3_low, half + 1), np.linspace(0.0, theta3_high, half + 1))
+        thetas, solutions = [], []
+        for sweep in sweeps:
+            a = self.straight_slider_a_distance
+            for theta3 in sweep:
+                cos3, sin3 = math.cos(theta3), math.sin(theta3)
+                for _ in range(50):
+                    residual, slope = self._residual_and_slope(a, cos3, sin3)
+                    if not abs(slope) > 1e-9:
+                        raise AssemblyError(
+                            f"mechanism 2 reaches a toggle pose at theta3 = {theta3:.6f} rad "
+                            f"(loop slope {slope:.3e}): the linkage locks"
+                        )
+                    a -= residual / slope
+                    if abs(residual) < 1e-15:
+                        break
+                residual, _ = self._residual_and_slope(a, cos3, sin3)
+                if not abs(residual) < 1e-12:
+                    raise SolverError(
+                        f"mechanism 2 loop does not close at theta3 = {theta3:.6f} rad "
+                        f"(residual {residual:.3e} m^2)"
+                    )
+                self._check_pose(theta3, a, cos3, sin3)
+                thetas.append(theta3)
+                solutions.append(a)
+        self._seed = np.polyfit(np.array(thetas), np.array(solutions), _SEED_POLYNOMIAL_DEGREE)
+        self._seed_coefficients = tuple(float(c) for c in self._seed)
+
+    def _check_pose(self, theta3: float, a: float, cos3: float, sin3: float) -> None:
+        au = math.hypot(a + self._SU * cos3, self._SU * sin3)
+        if not 0.0 < au < self._AV:
+            raise AssemblyError(
+                f"pin U leaves the slot of AV at theta3 = {theta3:.6f} rad: AU = {au:.6f} m, "
+                f"slot 0..{self._AV:.6f} m"
+            )
+        if not a > 0.0:
+            raise AssemblyError(
+                f"slider A passes S at theta3 = {theta3:.6f} rad: AS = {a:.6f} m must stay > 0"
+            )
+
+    def solve(
+        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+    ) -> UndulatoryState:
+        """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s]."""
+        if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
+            return self._solve_scalar(self._drive.solve(float(motor_angle), float(motor_velocity)))
+        return zero_dimensional_safe(self._solve_array_path, motor_angle, motor_velocity)
+
+    def link_points(self, state: LinkageState) -> UndulatoryPoints:
+        """Every joint of ``state`` (an undulatory state) in the frame at O."""
+        return undulatory_points(self.geometry, cast(UndulatoryState, state))
+
+    def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
+        """The drive, SW, the slider A, AV and VT (``state`` an undulatory state)."""
+        return undulatory_link_motion(
+            self.geometry, self._drive.theta2_mid, cast(UndulatoryState, state)
+        )
+
+    def _solve_array_path(self, phi: FloatArray, phi_dot: FloatArray) -> UndulatoryState:
+        return self._solve_array(*self._drive.solve_array_with_tail_trig(phi, phi_dot))
+
+    def _solve_scalar(self, d: OscillatoryState) -> UndulatoryState:
+        theta3 = cast(float, d.theta3)
+        cos3, sin3 = math.cos(theta3), math.sin(theta3)
+        a = 0.0
+        for coefficient in self._seed_coefficients:
+            a = a * theta3 + coefficient
+        # The per-message path: _residual_and_slope inlined, and the last evaluation's W - V
+        # reused as VW e(theta5).
+        su, sw, av, vw = self._SU, self._SW, self._AV, self._VW
+        su_cos3, su_sin3, sw_cos3, sw_sin3 = su * cos3, su * sin3, sw * cos3, sw * sin3
+        vw_sq = vw * vw
+        slope = residual = 0.0
+        for step in range(_MAX_NEWTON_STEPS + 1):
+            if step:
+                a -= residual / slope
+            dx = a + su_cos3
+            au = math.hypot(dx, su_sin3)
+            cos4 = dx / au
+            sin4 = su_sin3 / au
+            ex = sw_cos3 + a - av * cos4
+            ey = sw_sin3 - av * sin4
+            residual = ex * ex + ey * ey - vw_sq
+            if step and abs(residual) < self._residual_tolerance:
+                break
+            lever = av * sin4 / au
+            slope = 2.0 * (ex * (1.0 - lever * sin4) + ey * lever * cos4)
+        else:
+            raise SolverError(
+                f"mechanism 2 loop does not close at theta3 = {theta3!r} rad "
+                f"(residual {residual:.3e} m^2)"
+            )
+        cos5 = ex / vw
+        sin5 = ey / vw
+        rates = self._rates(d.theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
+        theta4 = math.atan2(sin4, cos4)
+        theta5 = math.atan2(sin5, cos5)
+        return self._assemble(d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates)
+
+    def _solve_array(
+        self, d: OscillatoryState, cos3: FloatArray, sin3: FloatArray
+    ) -> UndulatoryState:
+        theta3 = d.theta3
+        a = cast(FloatArray, np.polyval(self._seed, theta3))
+        residual, slope = self._residual_and_slope(a, cos3, sin3)
+        for _ in range(_MAX_NEWTON_STEPS):
+            a -= residual / slope
+            residual, slope = self._residual_and_slope(a, cos3, sin3)
+            # Written so that a NaN residual counts as not converged.
+            worst = float(np.max(np.abs(residual), initial=0.0))
+            if worst < self._residual_tolerance:
+                break
+        else:
+            raise SolverError(f"mechanism 2 loop residual up to {worst:.3e} m^2 in this batch")
+        dx = a + self._SU * cos3
+        dy = self._SU * sin3
+        au = np.sqrt(dx * dx + dy * dy)
+        cos4, sin4 = dx / au, dy / au
+        cos5 = (self._SW * cos3 + a - self._AV * cos4) / self._VW
+        sin5 = (self._SW * sin3 - self._AV * sin4) / self._VW
+        rates = self._rates(d.theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
+        theta4 = np.arctan2(sin4, cos4)
+        theta5 = np.arctan2(sin5, cos5)
+        return self._assemble(d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates)
+
+    def _rates(
+        self,
+        theta3_dot: Real,
+        cos3: Real,
+        sin3: Real,
+        cos4: Real,
+        sin4: Real,
+        cos5: Real,
+        sin5: Real,
+        au: Real,
+    ) -> tuple[Real, Real, Real, Real]:
+        # Time derivatives of the four loop equations, solved in closed form (docs/kinematics.md):
+        #   AS' [cos5 - (AV/AU) sin4 sin(t4-t5)]
+        #       = t3' [SW sin(t3-t5) - (AV SU/AU) sin(t4-t5) cos(t3-t4)]
+        #   t4' = (SU t3' cos(t3-t4) - AS' sin4) / AU
+        #   AU' = AS' cos4 - SU t3' sin(t3-t4)
+        #   t5' = (SW t3' cos(t3-t5) - AV t4' cos(t4-t5) - AS' sin5) / VW
+        sin34 = sin3 * cos4 - cos3 * sin4
+        cos34 = cos3 * cos4 + sin3 * sin4
+        sin35 = sin3 * cos5 - cos3 * sin5
+        cos35 = cos3 * cos5 + sin3 * sin5
+        sin45 = sin4 * cos5 - cos4 * sin5
+        cos45 = cos4 * cos5 + sin4 * sin5
+        lever = self._AV / au
+        slider_rate = (
+            theta3_dot
+            * (self._SW * sin35 - lever * self._SU * sin45 * cos34)
+            / (cos5 - lever * sin4 * sin45)
+        )
+        theta4_dot = (self._SU * theta3_dot * cos34 - slider_rate * sin4) / au
+        au_rate = slider_rate * cos4 - self._SU * theta3_dot * sin34
+        theta5_dot = (
+            self._SW * theta3_dot * cos35 - self._AV * theta4_dot * cos45 - slider_rate * sin5
+        ) / self._VW
+        return theta4_dot, au_rate, slider_rate, theta5_dot
+
+    def _assemble(
+        self,
+        d: OscillatoryState,
+        theta4: Real,
+        au: Real,
+        a: Real,
+        theta5: Real,
+        cos3: Real,
+        sin3: Real,
+        cos5: Real,
+        sin5: Real,
+        rates: tuple[Real, Real, Real, Real],
+    ) -> UndulatoryState:
+        theta4_dot, au_rate, slider_rate, theta5_dot = rates
+        t3_dot = d.theta3_dot
+        tip_x = self._OS + self._SW * cos3 + self._WT * cos5
+        tip_y = self._SW * sin3 + self._WT * sin5
+        tip_x_dot = -self._SW * sin3 * t3_dot - self._WT * sin5 * theta5_dot
+        tip_y_dot = self._SW * cos3 * t3_dot + self._WT * cos5 * theta5_dot
+        return UndulatoryState(
+            d.motor_angle, d.motor_velocity, d.slider_position, d.slider_velocity,
+            d.theta1, d.theta1_dot, d.theta2, d.theta2_dot, d.theta3, d.theta3_dot,
+            tip_x, tip_y, tip_x_dot, tip_y_dot,
+            theta4, theta4_dot, au, au_rate, a, slider_rate, theta5, theta5_dot,
+        )  # fmt: skip
