@@ -1,4 +1,4 @@
-"""Columns of numbers written as an aligned text table or as CSV.
+"""Columns of numbers (or words) written as an aligned text table or as CSV.
 
 >>> import io, numpy as np
 >>> out = io.StringIO()
@@ -13,17 +13,19 @@ from __future__ import annotations
 
 import csv
 from collections.abc import Sequence
-from typing import NamedTuple, TextIO
+from typing import Any, NamedTuple, TextIO
 
-import numpy as np
 import numpy.typing as npt
 
 
 class Column(NamedTuple):
-    """A column: its heading (CSV: the name), its values and their text format."""
+    """A column: its heading (CSV: the name), its values and their text format.
+
+    Values are numbers, or strings (format ``"s"``), which CSV writes as they are.
+    """
 
     heading: str
-    values: npt.NDArray[np.float64]
+    values: npt.NDArray[Any]
     format: str
     csv_name: str = ""
 
@@ -34,7 +36,7 @@ def write_table(columns: Sequence[Column], out: TextIO, as_csv: bool) -> None:
         writer = csv.writer(out, lineterminator="\n")
         writer.writerow([column.csv_name or column.heading for column in columns])
         for row in zip(*(column.values for column in columns), strict=True):
-            writer.writerow([f"{value:.12g}" for value in row])
+            writer.writerow([value if isinstance(value, str) else f"{value:.12g}" for value in row])
         return
     cells = [[format(value, column.format) for value in column.values] for column in columns]
     widths = [
