@@ -3,7 +3,8 @@
 The tail's geometry comes from ``--config`` (a kinematics parameter file such as
 ``config/oscillatory.yaml``) and the geometry flags of ``fishtail-kinematics``; the fish from
 ``--fish`` (``config/fish.yaml`` by default) and one flag per fish parameter
-(``--drag-coefficient 0.2``). Flags win over files. Every value is checked by its spec.
+(``--drag-coefficient 0.2``). Flags win over files. Every value is checked by its spec. The links'
+masses and moments of inertia (the motor's load) come from the tail's parameter file.
 """
 
 from __future__ import annotations
@@ -15,6 +16,11 @@ from typing import NamedTuple, NoReturn
 
 from fishtail_common.config_files import default_parameter_file
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
+from fishtail_kinematics.engine.link_inertia import (
+    LinkInertia,
+    inertia_parameters_in,
+    link_inertia_from_parameters,
+)
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import (
     MECHANISM,
@@ -102,12 +108,22 @@ def _existing(path: Path, option: str) -> Path:
     return path
 
 
+def _config_file(arguments: argparse.Namespace) -> Path:
+    """The kinematics parameter file: --config, or the --mechanism's (default oscillatory)."""
+    if arguments.config is not None:
+        return _existing(arguments.config, "--config")
+    return _default_file(arguments.mechanism or DEFAULT_MECHANISM)
+
+
+def link_inertia_from_arguments(arguments: argparse.Namespace) -> LinkInertia:
+    """The links' masses and inertias from the tail's parameter file (defaults for the others)."""
+    values = load_parameter_file(_config_file(arguments))
+    return link_inertia_from_parameters(inertia_parameters_in(values))
+
+
 def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
     """Merge the files and flags into a checked fish and a tail that assembles."""
-    if arguments.config is not None:
-        config = _existing(arguments.config, "--config")
-    else:
-        config = _default_file(arguments.mechanism or DEFAULT_MECHANISM)
+    config = _config_file(arguments)
     geometry_values: dict[str, object] = dict(geometry_parameters_in(load_parameter_file(config)))
     if arguments.mechanism is not None:
         geometry_values[MECHANISM.name] = arguments.mechanism
