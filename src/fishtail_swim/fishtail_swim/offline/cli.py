@@ -1,4 +1,4 @@
-"""``fishtail-swim``: steady swimming over carrier speeds, time-stepped runs to CSV, figures, GIF.
+"""``fishtail-swim``: steady swimming over carrier speeds, runs to CSV, figures, GIF, motor sizing.
 
 The tail comes from a kinematics parameter file (``--config config/oscillatory.yaml``), the fish
 from ``--fish`` (``config/fish.yaml``); flags named after the parameters override both. Bad input
@@ -21,6 +21,7 @@ from fishtail_common.parameters import ParameterValueError
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_swim.dynamics.motor_load import TailLoad
 from fishtail_swim.offline import animate, run_output
 from fishtail_swim.offline.fit import fish_file_text, fit_drag, read_measurements, write_fit_report
 from fishtail_swim.offline.fit_free_body import (
@@ -33,11 +34,19 @@ from fishtail_swim.offline.inputs import (
     PROGRAM,
     SwimParser,
     UsageError,
+    link_inertia_from_arguments,
     number,
     positive_number,
     swimmer_arguments,
     swimmer_from_arguments,
 )
+from fishtail_swim.offline.motor_options import (
+    add_motor_arguments,
+    check_figure_path,
+    motor_parameters_from_arguments,
+)
+from fishtail_swim.offline.motor_sizing import size_motor
+from fishtail_swim.offline.motor_sizing_report import plot_torque_speed, write_sizing_report
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
 from fishtail_swim.offline.tables import Column, write_table
@@ -157,6 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="RK4 steps per tail beat (32)",
     )  # fmt: skip
     _add_fit_parser(commands, swimmer)
+    _add_motor_parser(commands, swimmer)
     return parser
 
 
@@ -195,6 +205,19 @@ def _add_fit_parser(commands: argparse._SubParsersAction[SwimParser], swimmer: S
         "--steps-per-beat", type=_steps_per_beat, default=FREE_BODY_STEPS_PER_BEAT,
         help=f"RK4 steps per tail beat ({FREE_BODY_STEPS_PER_BEAT})",
     )  # fmt: skip
+
+
+def _add_motor_parser(
+    commands: argparse._SubParsersAction[SwimParser], swimmer: SwimParser
+) -> None:
+    motor = commands.add_parser(
+        "motor", parents=[swimmer],
+        help="size a DC gear motor for the tail: torque, current, voltage and power at each beat "
+        "frequency, the highest beat frequency at full duty, a torque-speed figure",
+        description="A motor too weak for the tail is an answer, not an error: its verdict says "
+        "so and the exit status is 0; bad options end with one line and status 2.",
+    )  # fmt: skip
+    add_motor_arguments(motor)
 
 
 def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
@@ -350,6 +373,29 @@ def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
         print(f"wrote {output}", file=notes)
 
 
+def run_motor(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Print the motor's sizing for the tail (and draw its torque-speed figure)."""
+    parameters = motor_parameters_from_arguments(arguments)
+    swimmer = swimmer_from_arguments(arguments)
+    figure: Path | None = arguments.figure
+    if figure is not None:
+        check_figure_path(figure)
+    surroundings = arguments.surroundings
+    inertia = link_inertia_from_arguments(arguments)
+    load = TailLoad(swimmer.tail, inertia, swimmer.fish, surroundings)
+    progress = Progress("motor (time-stepped)", 1.0)
+    sizing = size_motor(parameters, load, arguments.frequencies, progress=progress.update)
+    progress.finish()
+    described = f"{swimmer.tail.name} tail, {surroundings}"
+    write_sizing_report(sizing, described, out)
+    if figure is not None:
+        try:
+            plot_torque_speed(sizing, figure, f"Motor and load at the carrier: {described}")
+        except OSError as error:
+            raise UsageError(f"cannot write {figure}: {error.strerror or error}") from None
+        print(f"wrote {figure}", file=out)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``fishtail-swim``."""
     parser = build_parser()
@@ -359,6 +405,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "simulate": run_simulate,
         "animate": run_animate,
         "fit": run_fit,
+        "motor": run_motor,
     }[arguments.command]
     try:
         command(arguments, sys.stdout)

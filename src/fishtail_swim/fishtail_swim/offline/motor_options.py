@@ -1,0 +1,162 @@
+"""The options of ``fishtail-swim motor``: the surroundings, the frequencies, the figure, the motor.
+
+A motor is given either by its electrical constants (``--resistance-ohm``,
+``--torque-constant-n-m-a``) or by two datasheet figures at the carrier (``--stall-torque-n-m``
+and ``--no-load-speed-rad-s`` or ``--no-load-speed-rpm``, at ``--supply-voltage-v``, through
+``--gear-ratio`` and ``--gearbox-efficiency``); options not given keep
+:class:`~fishtail_driver.dc_motor.DcMotorParameters`'s defaults (the Pololu 37D, 30:1), which
+are read from it, not repeated here. Its checks give the reasons for bad values; the messages
+name the options.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from fishtail_driver.dc_motor import DcMotorParameters
+from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_swim.dynamics.motor_load import SURROUNDINGS
+from fishtail_swim.offline.inputs import UsageError, number, positive_number
+from fishtail_swim.offline.motor_sizing import DEFAULT_FREQUENCIES_HZ
+
+#: Options named after DcMotorParameters' fields: what they are, and the unit as a metavar.
+_FIELDS = {
+    "supply_voltage_v": ("supply voltage, the armature's at PWM 255 [V]", "V"),
+    "gear_ratio": ("motor turns per carrier turn", "N"),
+    "gearbox_efficiency": ("gearbox efficiency, (0, 1]", "ETA"),
+    "resistance_ohm": ("armature resistance [ohm]", "OHM"),
+    "torque_constant_n_m_a": ("torque constant = back-EMF constant [N m/A]", "N_M/A"),
+    "rotor_inertia_kg_m2": ("rotor inertia at the motor shaft [kg m^2]", "KG_M^2"),
+    "viscous_friction_n_m_s": ("viscous friction at the motor shaft [N m s/rad]", "N_M_S"),
+    "coulomb_friction_n_m": ("Coulomb (and breakaway) friction at the motor shaft [N m]", "N_M"),
+}
+#: Set by the electrical constants; derived from the datasheet figures otherwise.
+_ELECTRICAL = ("resistance_ohm", "torque_constant_n_m_a")
+_RPM = 2.0 * math.pi / 60.0
+#: Most beat frequencies one table takes.
+MAX_FREQUENCIES = 10_000
+
+
+def _option(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _defaults() -> dict[str, float]:
+    fields = dataclasses.fields(DcMotorParameters)
+    return {field.name: field.default for field in fields if isinstance(field.default, float)}
+
+
+def _frequency_list(text: str) -> FloatArray:
+    frequencies = [positive_number(item.strip()) for item in text.split(",") if item.strip()]
+    if not frequencies:
+        raise argparse.ArgumentTypeError(f"no beat frequencies in {text!r}")
+    if len(frequencies) > MAX_FREQUENCIES:
+        raise argparse.ArgumentTypeError(
+            f"at most {MAX_FREQUENCIES} frequencies, got {len(frequencies)}"
+        )
+    return np.array(frequencies)
+
+
+def check_figure_path(path: Path) -> None:
+    """UsageError unless ``path`` can be the PNG (said before the run, not after it)."""
+    # matplotlib picks the format by the file's suffix.
+    if path.suffix.lower() != ".png":
+        raise UsageError(f"--figure {path}: the figure is a PNG, name it *.png")
+    if path.is_dir():
+        raise UsageError(f"cannot write {path}: it is a directory")
+    if not path.parent.is_dir():
+        raise UsageError(f"cannot write {path}: no directory {path.parent}")
+
+
+def add_motor_arguments(parser: argparse.ArgumentParser) -> None:
+    """The command's options: surroundings, frequencies, figure and motor (all optional).
+
+    The motor's defaults are DcMotorParameters'.
+    """
+    parser.add_argument(
+        "--surroundings", choices=SURROUNDINGS, default="water_swimming",
+        help="what the tail works in (water_swimming: the fish towed at the speed it swims at)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--frequencies", type=_frequency_list, metavar="F1,F2,...",
+        default=np.array(DEFAULT_FREQUENCIES_HZ),
+        help="beat frequencies [Hz] of the table, one beat per carrier turn "
+        f"({','.join(f'{f:g}' for f in DEFAULT_FREQUENCIES_HZ)})",
+    )  # fmt: skip
+    parser.add_argument(
+        "--figure", type=Path, metavar="FILE.png",
+        help="write the torque-speed figure at the carrier (motor line, load, limits) here",
+    )  # fmt: skip
+    defaults = _defaults()
+    motor = parser.add_argument_group(
+        "motor (SI units; default: DcMotorParameters, a Pololu 37D 12 V with its 30:1 gearbox)"
+    )
+    for name, (text, unit) in _FIELDS.items():
+        motor.add_argument(
+            _option(name), type=number, metavar=unit, help=f"{text} ({defaults[name]:g})"
+        )
+    datasheet = parser.add_argument_group(
+        "motor from its datasheet (instead of --resistance-ohm and --torque-constant-n-m-a): "
+        "both figures at the carrier at --supply-voltage-v; friction is 0 unless given"
+    )
+    datasheet.add_argument(
+        "--stall-torque-n-m", type=number, metavar="N_M",
+        help="stall torque at the gearbox output [N m]",
+    )  # fmt: skip
+    speed = datasheet.add_mutually_exclusive_group()
+    speed.add_argument(
+        "--no-load-speed-rad-s", type=number, metavar="RAD/S",
+        help="no-load speed of the gearbox output [rad/s]",
+    )  # fmt: skip
+    speed.add_argument(
+        "--no-load-speed-rpm", type=number, metavar="RPM",
+        help="no-load speed of the gearbox output [rpm]",
+    )  # fmt: skip
+
+
+def _with_options(message: str) -> str:
+    """DcMotorParameters' message with its field names written as the options."""
+    names = (*_FIELDS, "stall_torque_n_m", "no_load_speed_rad_s")
+    return re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: _option(m.group(1)), message)
+
+
+def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorParameters:
+    """The checked motor; UsageError (one line) for a bad value or a wrong mix of options."""
+    given = {name: getattr(arguments, name) for name in _FIELDS}
+    given = {name: value for name, value in given.items() if value is not None}
+    stall = arguments.stall_torque_n_m
+    no_load = arguments.no_load_speed_rad_s
+    if arguments.no_load_speed_rpm is not None:
+        no_load = arguments.no_load_speed_rpm * _RPM
+    datasheet = stall is not None or no_load is not None
+    try:
+        if not datasheet:
+            return DcMotorParameters(**given)
+        if stall is None or no_load is None:
+            raise UsageError(
+                "give both --stall-torque-n-m and --no-load-speed-rad-s (or -rpm), or neither"
+            )
+        mixed = [_option(name) for name in _ELECTRICAL if name in given]
+        if mixed:
+            raise UsageError(
+                f"{' and '.join(mixed)} cannot go with --stall-torque-n-m: the datasheet figures "
+                "set the resistance and the torque constant"
+            )
+        defaults = _defaults()
+        voltage = given.pop("supply_voltage_v", defaults["supply_voltage_v"])
+        return DcMotorParameters.from_stall_and_no_load(
+            supply_voltage_v=voltage,
+            stall_torque_n_m=stall,
+            no_load_speed_rad_s=no_load,
+            gear_ratio=given.pop("gear_ratio", defaults["gear_ratio"]),
+            gearbox_efficiency=given.pop("gearbox_efficiency", defaults["gearbox_efficiency"]),
+            **given,
+        )
+    except ValueError as error:
+        raise UsageError(_with_options(str(error))) from None

@@ -1,0 +1,274 @@
+r"""Motor sizing: how fast a DC gear motor turns the tail, and what it draws doing so.
+
+Carrier speed ω, carrier angle φ; the tail's load is τ_L(φ, ω) = ω² c(φ) with the reduced inertia
+J(φ) (:class:`~fishtail_swim.dynamics.motor_load.TailLoad`); the motor is
+:class:`~fishtail_driver.dc_motor.DcMotor` (R, k, N, η, b, τ_c, J_m, supply V). Two levels:
+
+**Quasi-static** (constant carrier speed, φ̈ = 0). The gearbox delivers τ_L(φ) at the carrier; the
+motor supplies e τ_L / N with e = 1/η while it drives the tail and η where the tail drives it back,
+so at each φ
+
+.. code-block:: text
+
+    i(φ)     = (e c(φ) ω² / N + b N ω + τ_c) / k
+    V_req(φ) = R i(φ) + k N ω  =  a(φ) ω² + β ω + γ,   a = R e c / (k N),  β = R b N / k + k N,
+                                                         γ = R τ_c / k
+
+Only a(φ) depends on φ, so the required voltage is highest where e c is, at every speed. Two
+speeds at full duty (V_req reaching the supply V) follow, each from one quadratic:
+
+* *constant speed*: the peak of V_req reaches V. Up to there the speed loop can hold the carrier
+  at a constant speed through the whole revolution; it is where the motor's torque-speed line at
+  the carrier, η N (k (V − k N ω) / R − b N ω − τ_c), meets the load's peak ω² max c.
+* *on the mean*: the mean of V_req over the revolution reaches V. This is the limit of a heavy
+  flywheel on the motor shaft, which carries the carrier through the load's peaks at a steady
+  speed while the gearbox still loses its share angle by angle.
+
+**Time-stepped** (exact for the model): the :class:`DcMotor` at full duty (the firmware's PWM at
+its clamp, 255) with the tail's load, revolution by revolution until the revolution's time
+settles; its mean speed over the last revolutions is the highest beat frequency the motor
+sustains. The rotor's J_m N² and the links' J(φ) let the speed ripple instead of holding it:
+
+* the constant-speed limit is a lower bound: below it the motor's torque exceeds the load's at
+  every angle, so the carrier speeds up;
+* with a heavy rotor the ripple vanishes and the answer tends to the on-the-mean limit;
+* with a light one the carrier slows through the load's peaks and meets them at a lower speed,
+  where the load (∝ ω²) is smaller, so it sustains more than the on-the-mean limit: for the
+  report's tails and the default motor 1.5 % more (mechanism 1) and 9 % (mechanism 2).
+
+The load at rest is zero (ω² c), so a motor that turns at all turns the tail: it cannot stop the
+carrier, only slow it. A motor *cannot start the tail* when its stall torque at the carrier (net
+of its friction) does not exceed the load at rest, and *stalls* when the speed it sustains is
+below the slowest beat frequency asked for (the tail holds it close to its stall current).
+
+>>> from fishtail_driver.dc_motor import DcMotorParameters
+>>> motor = DcMotorParameters.from_stall_and_no_load(
+...     supply_voltage_v=12.0, stall_torque_n_m=1.0, no_load_speed_rad_s=20.0, gear_ratio=30.0)
+>>> free = LoadSamples(np.zeros(8), np.zeros(8))  # no load: both limits are the no-load speed
+>>> [round(speed, 9) for speed in quasi_static_limits(motor, free)]
+[20.0, 20.0]
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_driver.dc_motor import DcMotorParameters
+from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_swim.dynamics.motor_load import TailLoad
+from fishtail_swim.offline.full_duty_run import (
+    DEFAULT_RUN_LIMITS,
+    FullDutyRun,
+    RunLimits,
+    run_at_full_duty,
+)
+from fishtail_swim.offline.motor_load_table import SAMPLES_PER_REVOLUTION
+
+#: Beat frequencies [Hz] of the table when none are given (one beat per carrier revolution).
+DEFAULT_FREQUENCIES_HZ = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
+#: A row's verdict on holding its constant speed: the supply's voltage suffices at every angle;
+#: it does not; the peak load is beyond the motor's stall torque at the carrier (which no duty at
+#: this supply gives at any speed).
+OK, OVER_THE_SUPPLY, OVER_THE_STALL = "ok", "over the supply", "over the stall"
+
+
+class LoadSamples(NamedTuple):
+    """The tail's load over one revolution, at evenly spaced carrier angles from 0."""
+
+    #: c(φ) = τ_L / ω² [N m s²/rad²]: the load torque at 1 rad/s.
+    per_speed_squared_n_m_s2: FloatArray
+    #: J(φ) [kg m²], the links' inertia reduced to the carrier.
+    inertia_kg_m2: FloatArray
+
+
+def sample_load(load: TailLoad, samples: int = SAMPLES_PER_REVOLUTION) -> LoadSamples:
+    """c(φ) and J(φ) of ``load`` at ``samples`` angles (the engine's values, not the table's)."""
+    if load.surroundings == "none":
+        return LoadSamples(np.zeros(samples), np.zeros(samples))
+    angles = np.arange(samples) * (2.0 * math.pi / samples)
+    exact = load.exact(angles, 1.0)
+    return LoadSamples(
+        np.asarray(exact.torque_n_m, dtype=float),
+        np.asarray(exact.reduced_inertia_kg_m2, dtype=float),
+    )
+
+
+def _through_gearbox(per_speed_squared: FloatArray, efficiency: float) -> FloatArray:
+    """The load's torque as the motor pays for it, e c (1/η driving the tail, η driven by it)."""
+    return np.where(per_speed_squared > 0.0, per_speed_squared / efficiency,
+                    per_speed_squared * efficiency)  # fmt: skip
+
+
+def torque_at_carrier_n_m(parameters: DcMotorParameters, speed_rad_s: npt.ArrayLike) -> FloatArray:
+    """The motor's torque at the carrier at full duty, steady: its torque-speed line (motoring)."""
+    p = parameters
+    speed = np.asarray(speed_rad_s, dtype=float)
+    k, n = p.torque_constant_n_m_a, p.gear_ratio
+    at_shaft = (k * (p.supply_voltage_v - k * n * speed) / p.resistance_ohm
+                - p.viscous_friction_n_m_s * n * speed - p.coulomb_friction_n_m)  # fmt: skip
+    return np.asarray(p.gearbox_efficiency * n * at_shaft, dtype=float)
+
+
+class QuasiStaticRows(NamedTuple):
+    """One element per beat frequency, at the constant carrier speed 2 π f."""
+
+    beat_frequency_hz: FloatArray
+    carrier_speed_rad_s: FloatArray
+    peak_torque_n_m: FloatArray  # max |τ_L| at the carrier
+    rms_torque_n_m: FloatArray
+    peak_current_a: FloatArray  # max |i|
+    rms_current_a: FloatArray
+    mean_supply_power_w: FloatArray  # V_req i: the supply's power at the duty V_req / V
+    peak_voltage_v: FloatArray
+    mean_voltage_v: FloatArray
+    verdict: tuple[str, ...]
+
+
+def quasi_static_rows(
+    parameters: DcMotorParameters, load: LoadSamples, frequencies_hz: npt.ArrayLike
+) -> QuasiStaticRows:
+    """Torque, current, power and the voltage needed over a revolution at each beat frequency."""
+    p = parameters
+    frequencies = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
+    speeds = 2.0 * math.pi * frequencies
+    c = load.per_speed_squared_n_m_s2[:, None]
+    k, n = p.torque_constant_n_m_a, p.gear_ratio
+    torque = c * speeds**2
+    motor_torque = (_through_gearbox(c, p.gearbox_efficiency) * speeds**2 / n
+                    + p.viscous_friction_n_m_s * n * speeds + p.coulomb_friction_n_m)  # fmt: skip
+    current = motor_torque / k
+    voltage = p.resistance_ohm * current + k * n * speeds
+    peak_torque = np.abs(torque).max(axis=0)
+    peak_voltage = voltage.max(axis=0)
+    # A row at a limit itself (within rounding) is within it.
+    stall, supply = (limit * (1.0 + 1e-9) for limit in (p.stall_torque_n_m, p.supply_voltage_v))
+    verdict = tuple(
+        OVER_THE_STALL if peak > stall else OVER_THE_SUPPLY if volts > supply else OK
+        for peak, volts in zip(peak_torque, peak_voltage, strict=True)
+    )  # fmt: skip
+    return QuasiStaticRows(
+        frequencies,
+        speeds,
+        peak_torque,
+        np.sqrt(np.mean(torque**2, axis=0)),
+        np.abs(current).max(axis=0),
+        np.sqrt(np.mean(current**2, axis=0)),
+        np.mean(voltage * current, axis=0),
+        peak_voltage,
+        voltage.mean(axis=0),
+        verdict,
+    )
+
+
+class QuasiStaticLimits(NamedTuple):
+    """The carrier speeds [rad/s] at which full duty just suffices (0: the motor cannot turn)."""
+
+    #: The peak of the required voltage reaches the supply: held at a constant speed.
+    constant_speed_rad_s: float
+    #: Its mean over the revolution reaches the supply: a flywheel carries the peaks.
+    mean_rad_s: float
+
+
+def _speed_at_supply(parameters: DcMotorParameters, paid_per_speed_squared: float) -> float:
+    """The ω > 0 at which a ω² + β ω + γ = V, with a = R e c / (k N) for e c given; 0 if γ ≥ V."""
+    p = parameters
+    k, n, r = p.torque_constant_n_m_a, p.gear_ratio, p.resistance_ohm
+    a = r * paid_per_speed_squared / (k * n)
+    beta = r * p.viscous_friction_n_m_s * n / k + k * n
+    headroom = p.supply_voltage_v - r * p.coulomb_friction_n_m / k
+    if headroom <= 0.0:
+        return 0.0
+    discriminant = beta * beta + 4.0 * a * headroom
+    if discriminant < 0.0:  # a < 0: a load that drives the carrier faster than any supply limit
+        return math.inf
+    # The smaller positive root, written without the cancellation of -β + sqrt(...) for small a.
+    return 2.0 * headroom / (beta + math.sqrt(discriminant))
+
+
+def quasi_static_limits(parameters: DcMotorParameters, load: LoadSamples) -> QuasiStaticLimits:
+    """The constant-speed and on-the-mean limits at full duty (see the module's text)."""
+    paid = _through_gearbox(load.per_speed_squared_n_m_s2, parameters.gearbox_efficiency)
+    return QuasiStaticLimits(
+        _speed_at_supply(parameters, float(paid.max())),
+        _speed_at_supply(parameters, float(paid.mean())),
+    )
+
+
+class MotorSizing(NamedTuple):
+    """Everything ``fishtail-swim motor`` prints and draws for one motor and one tail."""
+
+    parameters: DcMotorParameters
+    load: LoadSamples
+    rows: QuasiStaticRows
+    limits: QuasiStaticLimits
+    run: FullDutyRun
+    #: max |τ_L(φ, 0)| [N m]: what the motor must overcome to start (0 for the tail's load).
+    load_at_rest_n_m: float
+    verdict: str
+
+
+def size_motor(
+    parameters: DcMotorParameters,
+    load: TailLoad,
+    frequencies_hz: npt.ArrayLike = DEFAULT_FREQUENCIES_HZ,
+    limits: RunLimits = DEFAULT_RUN_LIMITS,
+    progress: Callable[[float], None] | None = None,
+) -> MotorSizing:
+    """The table, both quasi-static limits, the full-duty run and the verdict for ``load``."""
+    samples = sample_load(load)
+    rows = quasi_static_rows(parameters, samples, frequencies_hz)
+    quasi_static = quasi_static_limits(parameters, samples)
+    start = quasi_static.mean_rad_s if math.isfinite(quasi_static.mean_rad_s) else 0.0
+    run = run_at_full_duty(parameters, load.torque, load.inertia, start, limits, progress)
+    angles = np.arange(samples.inertia_kg_m2.size) * (2.0 * math.pi / samples.inertia_kg_m2.size)
+    at_rest = max(abs(load.torque(float(angle), 0.0)) for angle in angles)
+    slowest = float(np.min(rows.beat_frequency_hz))
+    return MotorSizing(
+        parameters, samples, rows, quasi_static, run, at_rest,
+        verdict(parameters, run, slowest, at_rest),
+    )  # fmt: skip
+
+
+def verdict(
+    parameters: DcMotorParameters, run: FullDutyRun, slowest_hz: float, load_at_rest_n_m: float
+) -> str:
+    """One sentence: cannot start the tail, stalls (at what), or sustains what beat frequency."""
+    p = parameters
+    stall = p.stall_torque_n_m
+    if not run.started:
+        if stall <= 0.0:
+            return (
+                f"cannot start the tail: the motor cannot turn itself at {p.supply_voltage_v:g} V "
+                f"(its friction, {p.coulomb_friction_n_m:.3g} N m at the shaft, takes all of "
+                f"k V / R = {p.torque_constant_n_m_a * p.stall_current_a:.3g} N m)"
+            )
+        return (
+            f"cannot start the tail: peak load {load_at_rest_n_m:.3g} N m at rest > stall "
+            f"{stall:.3g} N m at the carrier"
+        )
+    if run.stopped_at_rad is not None:
+        return (
+            f"stalls: at full duty the carrier stops at phi = "
+            f"{run.stopped_at_rad % (2.0 * math.pi):.3f} rad, in revolution {run.revolutions + 1}"
+        )
+    frequency = run.mean_speed_rad_s / (2.0 * math.pi)
+    # The RMS current heats the winding: its share of the stall current says how hard it works.
+    current = (
+        f"RMS current {run.rms_current_a:.3g} A, "
+        f"{100.0 * run.rms_current_a / p.stall_current_a:.0f} % of the stall current"
+    )
+    if frequency < slowest_hz:
+        return (
+            f"stalls at {frequency:#.3g} Hz: at full duty the tail holds the carrier to "
+            f"{run.mean_speed_rad_s:.3g} rad/s, below the slowest beat asked for "
+            f"({slowest_hz:g} Hz); {current}"
+        )
+    return (
+        f"sustains {frequency:#.3g} Hz at full duty ({p.supply_voltage_v:g} V, PWM 255): mean "
+        f"carrier speed {run.mean_speed_rad_s:.3g} rad/s; {current}"
+    )
