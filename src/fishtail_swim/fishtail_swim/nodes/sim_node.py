@@ -55,7 +55,6 @@ from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
-from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
 from fishtail_kinematics.engine.input_guard import (
     ENGINE_REFUSED,
     FOLLOWER_REASONS,
@@ -70,15 +69,9 @@ from fishtail_kinematics.engine.input_guard import (
     DropCounts,
     input_status,
 )
-from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_kinematics.engine.parameters import (
-    MECHANISM,
-    geometry_from_parameters,
-    geometry_parameters_in,
-)
 from fishtail_msgs.msg import SwimFigures
 from fishtail_swim.dynamics.errors import SwimError
-from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
+from fishtail_swim.dynamics.fish import FISH_PARAMETERS
 from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
 from fishtail_swim.follower import BeatFigures, StampNotIncreasingError, SwimFollower
 from fishtail_swim.frames import yaw_quaternion
@@ -89,6 +82,7 @@ from fishtail_swim.nodes.fish_markers import (
     FishMarkerPublisher,
 )
 from fishtail_swim.nodes.fish_tf import PUBLISH_TF, FishTfBroadcaster, tf_message_type
+from fishtail_swim.tail_and_fish import TAIL_PARAMETERS, fish_from_values, tail_from_values
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time
@@ -116,8 +110,7 @@ def _read_only(specs: tuple[ParameterSpec, ...]) -> tuple[ParameterSpec, ...]:
 #: Every parameter of the node, all read-only.
 PARAMETERS: tuple[ParameterSpec, ...] = _read_only(
     (
-        MECHANISM,
-        *GEOMETRY_PARAMETERS,
+        *TAIL_PARAMETERS,
         *FISH_PARAMETERS,
         MOTOR_JOINT_NAME,
         MAX_STEP,
@@ -155,10 +148,8 @@ class SimNode(SuiteNodeBase):
         """Declare parameters, build the tail and the fish (raises on bad values), wire topics."""
         super().__init__("swim")
         values = declare(self, PARAMETERS)
-        tail = make_tail(geometry_from_parameters(geometry_parameters_in(values)))
-        fish = FishParameters.from_values(
-            {spec.name: values[spec.name] for spec in FISH_PARAMETERS}
-        )
+        tail = tail_from_values(values)
+        fish = fish_from_values(values)
         self.stale_timeout_s = float(values[STALE_TIMEOUT.name])
         self.follower = SwimFollower(
             tail, fish, float(values[MAX_STEP.name]), max_interval_s=self.stale_timeout_s
