@@ -14,7 +14,9 @@ Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the who
                              backend's figures as key values (the dc motor's current_a,
                              supply_power_w ...)
 
-Parameters: :mod:`fishtail_driver.parameters`. A watchdog, on a timer of its own (at most 50 ms,
+Parameters: :mod:`fishtail_driver.parameters`; with ``motor_load`` (sim, ``motor_model: dc``) also
+the tail's, its links' and the fish's, read-only, from which the motor's load is built once at start
+(:mod:`fishtail_driver.sim_load`). A watchdog, on a timer of its own (at most 50 ms,
 whatever the publish rate), stops the motor when no command arrives for ``cmd_timeout_sec``;
 SIGINT and SIGTERM stop the motor before the node exits (:func:`fishtail_common.ros.run_node`
 calls :meth:`DriverNode.before_exit`). A backend may refuse a disabled watchdog (the serial one
@@ -33,7 +35,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
@@ -53,8 +55,12 @@ from fishtail_common.parameters import ParameterValue, ParameterValueError
 from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
 from fishtail_common.stream_timing import RateCheck
 from fishtail_driver.backends import EncoderSample, StopOutcome
-from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, make_backend
+from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, ParameterValues, make_backend
+from fishtail_driver.sim_load import NO_LOAD, load_parameters, load_refusal, tail_load
 from fishtail_driver.stamping import ClockMapping, IncreasingStamps
+
+if TYPE_CHECKING:
+    from fishtail_swim.dynamics.motor_load import TailLoad
 
 #: A backend keeps a non-zero speed alive for cmd_timeout_sec plus this [s].
 COMMAND_HOLD_MARGIN_S = 0.25
@@ -85,7 +91,12 @@ class DriverNode(SuiteNodeBase):
         super().__init__("driver", **node_options)
         values = declare(self, DRIVER_PARAMETERS)
         self.cmd_timeout_sec = float(values["cmd_timeout_sec"])
-        self.backend = make_backend(values)
+        self.motor_load = str(values["motor_load"])
+        load = self._tail_load(values)
+        if load is None:
+            self.backend = make_backend(values)
+        else:
+            self.backend = make_backend(values, load.torque, load.inertia)
         reason = self.backend.watchdog_refusal(self.cmd_timeout_sec)
         if reason is not None:
             raise ValueError(reason)
@@ -137,10 +148,22 @@ class DriverNode(SuiteNodeBase):
         # Started last: nothing above can fail after the port is open and the I/O thread runs,
         # so a refused start-up never leaves them behind.
         self.backend.start()
+        loaded = ""
+        if load is not None:
+            loaded = f", motor turning the {load.model.tail.name} tail ({self.motor_load})"
         self.get_logger().info(
             f"driver up: backend {self.backend.name}, {self.publish_rate_hz:g} Hz, "
-            f"watchdog {self.cmd_timeout_sec:g} s"
+            f"watchdog {self.cmd_timeout_sec:g} s{loaded}"
         )
+
+    def _tail_load(self, values: ParameterValues) -> TailLoad | None:
+        """With a ``motor_load``: declare the tail's, links' and fish's parameters; their load."""
+        if self.motor_load == NO_LOAD:
+            return None
+        reason = load_refusal(values)
+        if reason is not None:
+            raise ValueError(reason)
+        return tail_load(declare(self, load_parameters()), self.motor_load)
 
     # ---- parameters changed at run time
 
@@ -291,6 +314,7 @@ class DriverNode(SuiteNodeBase):
         values = {
             **values,
             "backend": self.backend.name,
+            **({} if self.motor_load == NO_LOAD else {"motor_load": self.motor_load}),
             "commanded_speed_rad_s": f"{self.commanded_speed:.4f}",
             "watchdog_stops": str(self.watchdog_stops),
             "rejected_commands": str(self.rejected_commands),

@@ -10,7 +10,9 @@ The sim backend's motor is ``motor_model``'s: ``first_order`` (a speed lag,
 firmware's speed loop with ``pid_k*`` every ``1000 // serial_pid_rate_hz`` ms). The ``dc``
 defaults are a Pololu 37D 12 V motor (:class:`fishtail_driver.dc_motor.DcMotorParameters`), whose
 30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
-``encoder_counts_per_revolution:=64`` (not those parameters' defaults).
+``encoder_counts_per_revolution:=64`` (not those parameters' defaults: :data:`DC_MOTOR_ENCODER`).
+With ``motor_load`` other than ``none`` the DC motor turns the tail (:mod:`fishtail_driver.
+sim_load`); the node then declares the tail's, links' and fish's parameters as well.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from fishtail_driver.dc_motor import (
 from fishtail_driver.firmware_pid import PidGains
 from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
 from fishtail_driver.protocol import Scale
+from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
 
 ParameterValues = Mapping[str, ParameterValue]
 
@@ -66,6 +69,12 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("motor_model", "first_order", "sim: the simulated motor: first_order (a speed "
                   "lag, sim_time_constant_sec) or dc (a DC gear motor under the board firmware's "
                   "speed loop; effort in motor/joint_state)", choices=("first_order", "dc"),
+                  read_only=True),
+    ParameterSpec("motor_load", NO_LOAD, "sim, motor_model dc: what the motor turns: none, the "
+                  "tail in air (its links' inertia), in water with the fish held at rest "
+                  "(water_held) or towed at the speed it swims at (water_swimming); the tail, its "
+                  "links' masses and the fish are the geometry, link-inertia and fish parameters "
+                  "(config/<mechanism>.yaml, config/fish.yaml)", choices=MOTOR_LOADS,
                   read_only=True),
     # The DC motor (motor_model dc): electrical and friction figures at the motor shaft, before
     # the gearbox (gear_ratio). Defaults: a Pololu 37D 12 V motor (dc_motor.DcMotorParameters).
@@ -117,6 +126,14 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
 
 #: The specs by name.
 SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in DRIVER_PARAMETERS}
+
+#: The default DC motor's gearbox and encoder (Pololu 37D 30:1, 16 lines counted on all four
+#: edges), which ``gear_ratio`` and ``encoder_counts_per_revolution`` do not default to: what
+#: ``fishtail-run --motor dc`` and the launch file's ``motor_model:=dc`` set.
+DC_MOTOR_ENCODER: dict[str, ParameterValue] = {
+    "gear_ratio": DcMotorParameters().gear_ratio,
+    "encoder_counts_per_revolution": 64,
+}
 
 
 def _first_order_motor(values: ParameterValues, load: LoadTorque, inertia: LoadInertia) -> SimMotor:
