@@ -21,8 +21,8 @@ the firmware's source (hbrobotics/ros_arduino_bridge ``ROSArduinoBridge.ino`` an
   not 0: anything else is refused, see :meth:`Firmware._update_gains`);
 - every PWM the board writes drives the channel's motor (:mod:`fishtail_driver.board_motors`:
   ``ideal``, the first-order lag following the loop's target; ``first-order``, the lag driven by
-  the PWM; ``dc``, the DC gear motor at duty PWM / 255), and the frames are recorded in
-  :attr:`Firmware.frames`;
+  the PWM; ``dc``, the DC gear motor at duty PWM / 255, turning ``load`` on both channels), and
+  the frames are recorded in :attr:`Firmware.frames`;
 - encoder counts are signed 32-bit and wrap (``encoder_offset`` starts them near the wrap).
 
 >>> board = Firmware(FirmwareConfig(), now=0.0)
@@ -37,6 +37,7 @@ import dataclasses
 from collections.abc import Callable
 
 from fishtail_driver.board_motors import MOTOR_KINDS, make_motor
+from fishtail_driver.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
 from fishtail_driver.firmware_pid import FirmwareSpeedLoop, FrameTimer, PidGains
 from fishtail_driver.protocol import AUTO_STOP_INTERVAL_MS, Scale, wrap_int16, wrap_int32
 
@@ -74,6 +75,10 @@ class FirmwareConfig:
     encoder_offset: int = 0
     arg_buffer_bytes: int = 32
     motor: str = "ideal"
+    #: What the motor of each channel turns (:mod:`fishtail_driver.dc_motor`'s load callables):
+    #: the tail, on both channels, so that the one a host drives turns it. ``motor`` dc only.
+    load: LoadTorque = zero_load
+    load_inertia: LoadInertia = zero_load_inertia
 
     def __post_init__(self) -> None:
         """Reject meaningless settings with the reason."""
@@ -81,6 +86,9 @@ class FirmwareConfig:
             raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
         if self.motor not in MOTOR_KINDS:
             raise ValueError(f"motor must be one of {MOTOR_KINDS}, got {self.motor!r}")
+        loaded = self.load is not zero_load or self.load_inertia is not zero_load_inertia
+        if loaded and self.motor != "dc":
+            raise ValueError(f"a load needs motor dc, got motor {self.motor!r} (it feels none)")
         if self.baud < 1:
             raise ValueError(f"baud must be >= 1, got {self.baud}")
         if self.arg_buffer_bytes < 2:
@@ -114,7 +122,14 @@ class Firmware:
         self.config = config
         self.scale = Scale(config.counts_per_revolution, config.gear_ratio, config.pid_rate_hz)
         self.motors = [
-            make_motor(config.motor, self.scale, config.time_constant_s, config.max_speed_rad_s)
+            make_motor(
+                config.motor,
+                self.scale,
+                config.time_constant_s,
+                config.max_speed_rad_s,
+                config.load,
+                config.load_inertia,
+            )
             for _ in range(2)
         ]
         self.time = now

@@ -16,9 +16,11 @@ what the board's ``setMotorSpeeds()`` writes, whenever it writes it: at every PI
   linear, load-free motor whose full duty gives ``max_speed_rad_s``. The loop settles within its
   dead band of the target.
 - ``dc`` (:class:`DcChannelMotor`): the DC gear motor of :mod:`fishtail_driver.dc_motor` (the
-  Pololu 37D defaults, no load) with the gearbox ratio of the board's encoder scale, at duty
-  PWM / 255: the speed ripple of the loop's integer arithmetic, as the simulated backend's
-  :class:`fishtail_driver.dc_drive.PidDrivenDcMotor` shows it.
+  Pololu 37D defaults) with the gearbox ratio of the board's encoder scale, at duty PWM / 255,
+  unloaded or turning a load (``load``, ``load_inertia``: the tail, ``fishtail-fake-board
+  --load``): the speed ripple of the loop's integer arithmetic and of the load, as the simulated
+  backend's :class:`fishtail_driver.dc_drive.PidDrivenDcMotor` shows it. The other motors feel
+  no load.
 
 The encoder counts on the motor shaft, floored as a counter sees it (the firmware wraps them).
 """
@@ -29,7 +31,14 @@ import dataclasses
 import math
 from typing import Protocol
 
-from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
+from fishtail_driver.dc_motor import (
+    DcMotor,
+    DcMotorParameters,
+    LoadInertia,
+    LoadTorque,
+    zero_load,
+    zero_load_inertia,
+)
 from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
 from fishtail_driver.protocol import PWM_MAX, Scale
 
@@ -84,9 +93,15 @@ class PwmFirstOrderMotor(SimulatedMotor):
 class DcChannelMotor:
     """A :class:`DcMotor` at duty PWM / 255, with an encoder on the motor shaft."""
 
-    def __init__(self, parameters: DcMotorParameters, scale: Scale) -> None:
-        """At rest, duty 0."""
-        self.motor = DcMotor(parameters)
+    def __init__(
+        self,
+        parameters: DcMotorParameters,
+        scale: Scale,
+        load: LoadTorque = zero_load,
+        load_inertia: LoadInertia = zero_load_inertia,
+    ) -> None:
+        """At rest, duty 0, turning ``load`` (:mod:`fishtail_driver.dc_motor`; none by default)."""
+        self.motor = DcMotor(parameters, load, load_inertia)
         self.scale = scale
 
     @property
@@ -114,13 +129,21 @@ class DcChannelMotor:
 
 
 def make_motor(
-    kind: str, scale: Scale, time_constant_s: float, max_speed_rad_s: float
+    kind: str,
+    scale: Scale,
+    time_constant_s: float,
+    max_speed_rad_s: float,
+    load: LoadTorque = zero_load,
+    load_inertia: LoadInertia = zero_load_inertia,
 ) -> BoardMotor:
-    """One channel's motor of ``kind`` (see :data:`MOTOR_KINDS`) for an encoder of ``scale``."""
+    """One channel's motor of ``kind`` (see :data:`MOTOR_KINDS`) for an encoder of ``scale``.
+
+    ``load`` and ``load_inertia`` are what the ``dc`` motor turns (ignored by the others).
+    """
     if kind == "dc":
         # The Pololu 37D's armature and friction behind the gearbox the encoder scale says.
         parameters = dataclasses.replace(DcMotorParameters(), gear_ratio=scale.gear_ratio)
-        return DcChannelMotor(parameters, scale)
+        return DcChannelMotor(parameters, scale, load, load_inertia)
     lag = MotorParameters(
         time_constant_s=time_constant_s,
         max_speed_rad_s=max_speed_rad_s,

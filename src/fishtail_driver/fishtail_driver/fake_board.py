@@ -11,8 +11,11 @@ The firmware's behaviour (parsing quirks, PID frames, auto-stop, wrapping counts
 and knows ``o``; ``--motor`` chooses what the firmware's PWM drives
 (:mod:`fishtail_driver.board_motors`: ``ideal``, the default, ``first-order`` or ``dc``, the DC
 gear motor as the simulated backend runs it; with ``--counts-per-rev 64 --gear-ratio 30`` it is
-the Pololu 37D 30:1 with its encoder); an argument longer than ``--arg-buffer`` - 1 characters
-is reported on stderr.
+the Pololu 37D 30:1 with its encoder); with ``--motor dc``, ``--load`` makes each channel's motor
+turn the tail (:mod:`fishtail_driver.sim_load`: ``air``, ``water_held``, ``water_swimming``, the
+driver's ``motor_load``) of ``--config`` (default config/oscillatory.yaml) and ``--fish``
+(default config/fish.yaml), so that the serial path sees the ripple the simulated backend's
+loaded motor has; an argument longer than ``--arg-buffer`` - 1 characters is reported on stderr.
 
 Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply (a slow board; from
 ``--delay-after-s`` on only, and SIGUSR2 switches the delay off and on again, so that a host can
@@ -33,10 +36,13 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+from pathlib import Path
 
 from fishtail_driver.board_firmware import VARIANTS
 from fishtail_driver.board_motors import MOTOR_KINDS
 from fishtail_driver.board_pty import BoardConfig, FakeBoard
+from fishtail_driver.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
+from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD, tail_load_from_files
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -65,6 +71,15 @@ def _parser() -> argparse.ArgumentParser:
         help="ideal: first-order lag at the loop's target; first-order: the lag driven by the "
         "PWM; dc: DC gear motor (Pololu 37D, --gear-ratio) at duty PWM/255",
     )
+    add(
+        "--load",
+        choices=MOTOR_LOADS,
+        default=NO_LOAD,
+        help="with --motor dc: what each motor turns: the tail of --config in air, in water held "
+        "at rest, or towed at its swimming speed (the fish of --fish)",
+    )
+    add("--config", type=Path, help="--load's tail and link masses (config/oscillatory.yaml)")
+    add("--fish", type=Path, help="--load's fish (config/fish.yaml)")
     add("--counts-per-rev", type=int, default=2048, help="encoder counts per motor turn")
     add("--gear-ratio", type=float, default=1.0, help="motor turns per carrier turn")
     add("--pid-rate", type=int, default=30, help="the firmware's PID_RATE [Hz]")
@@ -89,10 +104,23 @@ def _parser() -> argparse.ArgumentParser:
     return parser  # fmt: skip
 
 
+def _load(args: argparse.Namespace) -> tuple[LoadTorque, LoadInertia]:
+    """The load callables that ``--load``, ``--config`` and ``--fish`` describe (ValueError)."""
+    if args.load == NO_LOAD:
+        if args.config is not None or args.fish is not None:
+            raise ValueError("--config and --fish describe the tail of --load: give --load too")
+        return zero_load, zero_load_inertia
+    if args.motor != "dc":
+        raise ValueError(f"--load {args.load} needs --motor dc (the {args.motor} motor feels none)")
+    tail = tail_load_from_files(args.load, args.config, args.fish)
+    return tail.torque, tail.inertia
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``fishtail-fake-board``."""
     args = _parser().parse_args(argv)
     try:
+        load, load_inertia = _load(args)
         config = BoardConfig(
             baud=args.baud,
             pace_baud=args.pace_baud,
@@ -100,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
             counts_per_revolution=args.counts_per_rev,
             gear_ratio=args.gear_ratio,
             motor=args.motor,
+            load=load,
+            load_inertia=load_inertia,
             pid_rate_hz=args.pid_rate,
             time_constant_s=args.time_constant,
             max_speed_rad_s=args.max_speed,
