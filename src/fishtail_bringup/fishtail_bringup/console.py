@@ -65,6 +65,18 @@ def fish_text(speed_m_s: float | None, heading_rad: float | None) -> str:
     return f"fish {speed_m_s:.3f} m/s heading {math.degrees(heading_rad):+6.2f}°"
 
 
+def motor_text(torque_n_m: float, current_a: float | None) -> str:
+    """The simulated DC motor's part of the status line: the torque on the carrier, the current.
+
+    >>> motor_text(0.02814, 0.4123)
+    'torque +0.0281 N m, 0.41 A'
+    >>> motor_text(-0.0012, None)
+    'torque -0.0012 N m'
+    """
+    current = "" if current_a is None else f", {current_a:.2f} A"
+    return f"torque {torque_n_m:+.4f} N m{current}"
+
+
 def verdict_text(beat_index: int | None, verdict: int | None, message: str) -> str:
     """The symmetry part of the status line."""
     if beat_index is None or verdict is None:

@@ -5,8 +5,12 @@ nodes run as separate processes, each in its own process group (so one signal re
 node), with their output prefixed and forwarded here. This process also hosts a small console node
 that publishes the carrier speed (``motor/cmd_speed``, 10 Hz, so the driver's watchdog stays
 quiet) and prints the carrier angle, theta3, the tip and the latest symmetry verdict. ``--swim``
-adds the swimming simulator (fishtail_swim's ``sim``, the fish from ``config/fish.yaml``) and the
-fish's speed and heading from ``fish/odom`` to that line.
+adds the swimming simulator (fishtail_swim's ``sim``, the fish from ``config/fish.yaml`` or
+``--fish``) and the fish's speed and heading from ``fish/odom`` to that line. ``--motor dc`` runs
+the simulated motor as the DC gear motor under the board's speed loop (with the default motor's
+gearbox and encoder), ``--load`` makes it turn the tail of the parameter file (in air, in water held
+at rest or towed at its swimming speed, the fish of ``--fish``); the line then shows the torque on
+the carrier and the motor's current.
 
 Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
 kills any that hang. A node that dies early ends the run with exit status 1.
@@ -24,21 +28,32 @@ import threading
 import time
 from pathlib import Path
 
-from fishtail_bringup.console import fish_text, level_name, status_line, verdict_text
+from fishtail_bringup.console import (
+    fish_text,
+    level_name,
+    motor_text,
+    status_line,
+    verdict_text,
+)
 from fishtail_common.config_files import default_parameter_file
 from fishtail_common.interface import (
     DIAGNOSTICS,
     FISH_ODOM,
     MOTOR_CMD_SPEED,
+    MOTOR_JOINT_STATE,
     SUITE_NODES,
     SWIM_NODE,
     TAIL_STATE,
     TAIL_SYMMETRY,
     SuiteNode,
 )
+from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
+from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
 
 COMMAND_PERIOD_S = 0.1
 SHUTDOWN_WAIT_S = 5.0
+#: The driver's simulated motors (its motor_model parameter).
+MOTOR_MODELS = SPECS["motor_model"].choices
 
 
 def _speed(text: str) -> float:
@@ -53,6 +68,16 @@ def _duration(text: str) -> float:
     if not (math.isfinite(value) and value > 0.0):
         raise argparse.ArgumentTypeError("duration must be a positive number of seconds")
     return value
+
+
+def motor_parameters(motor: str | None, load: str) -> list[str]:
+    """The driver's ``NAME:=VALUE`` items of ``--motor`` and ``--load`` (before --driver-param)."""
+    items = [] if motor is None else [f"motor_model:={motor}"]
+    if motor == "dc":
+        items += [f"{name}:={value!r}" for name, value in DC_MOTOR_ENCODER.items()]
+    if load != NO_LOAD:
+        items.append(f"motor_load:={load}")
+    return items
 
 
 def _node_names(text: str) -> tuple[SuiteNode, ...]:
@@ -90,6 +115,26 @@ def build_parser() -> argparse.ArgumentParser:
         "show the fish's speed and heading",
     )
     parser.add_argument(
+        "--fish",
+        type=Path,
+        help="fish parameter file of --swim and --load (default config/fish.yaml)",
+    )
+    parser.add_argument(
+        "--motor",
+        choices=MOTOR_MODELS,
+        help="the simulated motor (the driver's motor_model; default first_order): dc is the DC "
+        "gear motor under the board's speed loop, with gear_ratio 30 and "
+        "encoder_counts_per_revolution 64 (its gearbox and encoder; --driver-param overrides)",
+    )
+    parser.add_argument(
+        "--load",
+        choices=MOTOR_LOADS,
+        default=NO_LOAD,
+        help="with --motor dc: what the motor turns (the driver's motor_load): the tail of the "
+        "parameter file in air, in water with the fish held at rest or towed at the speed it swims "
+        "at (the fish of --fish)",
+    )
+    parser.add_argument(
         "--no-command",
         action="store_true",
         help="do not publish motor/cmd_speed (another computer commands the motor)",
@@ -114,10 +159,16 @@ class Supervisor:
         driver_params: list[str],
         nodes: tuple[SuiteNode, ...] = SUITE_NODES,
         fish_config: Path | None = None,
+        driver_reads_fish: bool = False,
     ) -> None:
-        """Remember how to start the nodes (``fish_config`` for the simulator's fish)."""
+        """Remember how to start the nodes.
+
+        ``fish_config``, the fish's parameter file, goes to the simulator, and to the driver with
+        ``driver_reads_fish`` (its motor turns the tail).
+        """
         self.nodes = nodes
         self.fish_config = fish_config
+        self.driver_reads_fish = driver_reads_fish
         self.config = config
         self.namespace = namespace
         self.driver_params = driver_params
@@ -129,7 +180,10 @@ class Supervisor:
         """The command line of one node."""
         command = [sys.executable, "-m", node.module, "--ros-args"]
         command += ["--params-file", str(self.config)]
-        if node == SWIM_NODE and self.fish_config is not None:
+        reads_fish = node == SWIM_NODE or (
+            self.driver_reads_fish and node.package == "fishtail_driver"
+        )
+        if reads_fish and self.fish_config is not None:
             command += ["--params-file", str(self.fish_config)]
         if self.namespace:
             command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
@@ -199,6 +253,7 @@ class Console:
         """
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
+        from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64
 
         from fishtail_common.ros import qos_profile
@@ -213,6 +268,10 @@ class Console:
         self.report = None
         self.fish = None
         self.swim = swim
+        #: The torque on the carrier (motor/joint_state's effort) and the motor's current (the
+        #: driver's /diagnostics), when the simulated motor has them.
+        self.torque_n_m: float | None = None
+        self.current_a: float | None = None
         self.diagnostics: dict[str, tuple[int, str]] = {}
         # Only a console that commands the motor publishes the command topic: the computer that
         # does is the one whose loss the driver's watchdog answers.
@@ -226,6 +285,7 @@ class Console:
             (TailState, TAIL_STATE, self._on_state),
             (SymmetryReport, TAIL_SYMMETRY, self._on_report),
             (DiagnosticArray, DIAGNOSTICS, self._on_diagnostics),
+            (JointState, MOTOR_JOINT_STATE, self._on_motor),
         )
         for message_type, topic, callback in subscriptions:
             self.node.create_subscription(message_type, topic.name, callback, qos_profile(topic))
@@ -245,10 +305,16 @@ class Console:
     def _on_fish(self, message) -> None:
         self.fish = message
 
+    def _on_motor(self, message) -> None:
+        self.torque_n_m = float(message.effort[0]) if message.effort else None
+
     def _on_diagnostics(self, message) -> None:
         # Shown when a status changes level (and the first time, unless it is OK), so that a WARN
         # or ERROR from any node appears above the status line once, not every second.
         for status in message.status:
+            for pair in status.values:
+                if pair.key == "current_a":
+                    self.current_a = float(pair.value)
             level = status.level[0]
             previous = self.diagnostics.get(status.name)
             self.diagnostics[status.name] = (level, status.message)
@@ -271,14 +337,17 @@ class Console:
             None if report is None else report.verdict,
             "" if report is None else report.message,
         )
-        return status_line(
+        line = status_line(
             elapsed_s,
             None if state is None else state.motor_velocity,
             None if state is None else state.motor_angle,
             None if state is None else state.theta3,
             None if state is None else (state.tip.x, state.tip.y),
             verdict,
-        ) + (" | " + self._fish_part() if self.swim else "")
+        )
+        if self.torque_n_m is not None:
+            line += " | " + motor_text(self.torque_n_m, self.current_a)
+        return line + (" | " + self._fish_part() if self.swim else "")
 
     def _fish_part(self) -> str:
         fish = self.fish
@@ -291,15 +360,23 @@ class Console:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``fishtail-run``."""
-    arguments = build_parser().parse_args(argv)
+    parser = build_parser()
+    arguments = parser.parse_args(argv)
+    loaded = arguments.load != NO_LOAD
+    if loaded and arguments.motor != "dc":
+        parser.error(f"--load {arguments.load} needs --motor dc (only the DC motor feels a load)")
     try:
         config = arguments.config or default_parameter_file(arguments.mechanism)
+        fish_config = None
+        if arguments.swim or loaded:
+            fish_config = arguments.fish or default_parameter_file("fish")
     except LookupError as error:
         print(f"fishtail-run: error: {error}", file=sys.stderr)
         return 2
-    if not config.is_file():
-        print(f"fishtail-run: error: no parameter file {config}", file=sys.stderr)
-        return 2
+    for path in (config, fish_config):
+        if path is not None and not path.is_file():
+            print(f"fishtail-run: error: no parameter file {path}", file=sys.stderr)
+            return 2
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
@@ -307,22 +384,20 @@ def main(argv: list[str] | None = None) -> int:
 
     stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    nodes = arguments.nodes
-    fish_config = None
-    if arguments.swim:
-        nodes = (*nodes, SWIM_NODE)
-        try:
-            fish_config = default_parameter_file("fish")
-        except LookupError as error:
-            print(f"fishtail-run: error: {error}", file=sys.stderr)
-            return 2
-    supervisor = Supervisor(config, arguments.namespace, arguments.driver_param, nodes, fish_config)
+    nodes = (*arguments.nodes, SWIM_NODE) if arguments.swim else arguments.nodes
+    # The driver's own parameters after --motor's, so that --driver-param overrides them.
+    driver_params = motor_parameters(arguments.motor, arguments.load) + arguments.driver_param
+    supervisor = Supervisor(
+        config, arguments.namespace, driver_params, nodes, fish_config, driver_reads_fish=loaded
+    )
     speed = None if arguments.no_command else arguments.speed
     interactive = sys.stdout.isatty()
     if interactive:
         supervisor.clear_line = "\r\033[K"
     supervisor.say(
         f"fishtail-run: {', '.join(node.name for node in nodes)} with {config}, "
+        + (f"{arguments.motor} motor, " if arguments.motor else "")
+        + (f"turning the tail ({arguments.load}), " if loaded else "")
         + ("motor commanded elsewhere" if speed is None else f"at {speed:g} rad/s")
         + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
     )

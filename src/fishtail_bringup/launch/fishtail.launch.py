@@ -4,6 +4,7 @@
     ros2 launch fishtail_bringup fishtail.launch.py mechanism:=undulatory namespace:=fish1
     ros2 launch fishtail_bringup fishtail.launch.py params_file:=/path/to/my_tail.yaml
     ros2 launch fishtail_bringup fishtail.launch.py swim:=true   # and the swimming simulator
+    ros2 launch fishtail_bringup fishtail.launch.py motor_model:=dc motor_load:=water_swimming
 
 The launch file does not command the motor: publish the carrier speed yourself, e.g.
     ros2 topic pub -r 10 motor/cmd_speed std_msgs/msg/Float64 "{data: 4.0}"
@@ -14,17 +15,39 @@ The launch file does not command the motor: publish the carrier speed yourself, 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch.substitutions import (
+    EqualsSubstitution,
+    IfElseSubstitution,
+    LaunchConfiguration,
+    PathJoinSubstitution,
+)
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
 from fishtail_common.interface import SUITE_NODES, SWIM_NODE
+from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
+from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
+
+
+def dc_motor_encoder(motor_model):
+    """The encoder parameters of ``motor_model``: the DC motor's with dc, else the defaults.
+
+    Given before the params files, so that a file that sets them wins.
+    """
+    is_dc = EqualsSubstitution(motor_model, "dc")
+    return {
+        name: IfElseSubstitution(is_dc, repr(value), repr(SPECS[name].default))
+        for name, value in DC_MOTOR_ENCODER.items()
+    }
 
 
 def generate_launch_description():
     """Three nodes in one namespace, geometry from the params file of the chosen mechanism.
 
     ``swim:=true`` adds the swimming simulator: the same geometry, the fish of ``fish_params_file``.
+    ``motor_model:=dc`` runs the simulated motor as the DC gear motor (with its gearbox and
+    encoder), ``motor_load`` makes it turn the tail of ``params_file`` (and the fish of
+    ``fish_params_file``, which the driver reads too).
     """
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
@@ -35,16 +58,23 @@ def generate_launch_description():
         PathJoinSubstitution([FindPackageShare("fishtail_bringup"), "config", mechanism]),
         ".yaml",
     ]
-    backend = {"backend": LaunchConfiguration("backend")}
+    fish_params_file = LaunchConfiguration("fish_params_file")
+    motor_model = LaunchConfiguration("motor_model")
+    driver = {
+        "backend": LaunchConfiguration("backend"),
+        "motor_model": motor_model,
+        "motor_load": LaunchConfiguration("motor_load"),
+    }
+    # The driver declares the fish's parameters only with a motor_load; without one it ignores
+    # them, as every node ignores the parameters of a file that it does not declare.
+    driver_parameters = [dc_motor_encoder(motor_model), params_file, fish_params_file, driver]
     nodes = [
         Node(
             package=node.package,
             executable=node.executable,
             name=node.name,
             namespace=namespace,
-            parameters=[params_file, backend]
-            if node.package == "fishtail_driver"
-            else [params_file],
+            parameters=driver_parameters if node.package == "fishtail_driver" else [params_file],
             output="screen",
         )
         for node in SUITE_NODES
@@ -54,7 +84,7 @@ def generate_launch_description():
         executable=SWIM_NODE.executable,
         name=SWIM_NODE.name,
         namespace=namespace,
-        parameters=[params_file, LaunchConfiguration("fish_params_file")],
+        parameters=[params_file, fish_params_file],
         output="screen",
         condition=IfCondition(LaunchConfiguration("swim")),
     )
@@ -73,6 +103,19 @@ def generate_launch_description():
             ),
             DeclareLaunchArgument("namespace", default_value="", description="namespace"),
             DeclareLaunchArgument("backend", default_value="sim", description="sim or serial"),
+            DeclareLaunchArgument(
+                "motor_model",
+                default_value=str(SPECS["motor_model"].default),
+                description="the simulated motor: first_order, or dc (a DC gear motor under the "
+                "board's speed loop; sets gear_ratio 30 and encoder_counts_per_revolution 64)",
+            ),
+            DeclareLaunchArgument(
+                "motor_load",
+                default_value=NO_LOAD,
+                description="with motor_model:=dc, what the motor turns: "
+                + ", ".join(MOTOR_LOADS)
+                + " (the tail of params_file, the fish of fish_params_file)",
+            ),
             DeclareLaunchArgument(
                 "swim",
                 default_value="false",

@@ -27,7 +27,14 @@ from launch.actions import DeclareLaunchArgument  # noqa: E402
 from launch.launch_description_sources import (  # noqa: E402
     get_launch_description_from_python_launch_file,
 )
+from launch.launch_description_sources.python_launch_file_utilities import (  # noqa: E402
+    load_python_launch_file_as_module,
+)
+from launch.substitutions import LaunchConfiguration  # noqa: E402
 from launch.utilities import perform_substitutions  # noqa: E402
+from launch_ros.utilities import evaluate_parameters, normalize_parameters  # noqa: E402
+
+from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS  # noqa: E402
 
 SRC = Path(__file__).resolve().parents[2]
 LAUNCH_FILE = SRC / "fishtail_bringup" / "launch" / "fishtail.launch.py"
@@ -51,7 +58,10 @@ def description():
 
 def test_declares_the_arguments(description):
     names = [argument.name for argument in description.get_launch_arguments()]
-    assert names == ["mechanism", "params_file", "namespace", "backend", "swim", "fish_params_file"]
+    assert names == [
+        "mechanism", "params_file", "namespace", "backend", "motor_model", "motor_load", "swim",
+        "fish_params_file",
+    ]  # fmt: skip
 
 
 def test_launches_the_three_nodes_of_the_packages(description):
@@ -105,3 +115,22 @@ def test_swim_adds_the_simulator_with_the_installed_fish(description, swim, laun
     ]
     path = Path(perform_substitutions(context, fish.default_value))
     assert path.is_file() and path.read_text() == (SRC.parent / "config" / "fish.yaml").read_text()
+
+
+@pytest.mark.parametrize("motor_model", ["first_order", "dc"])
+def test_the_dc_motor_gets_its_gearbox_and_encoder(motor_model):
+    """motor_model:=dc sets gear_ratio 30 and 64 counts (before the params files); else defaults."""
+    module = load_python_launch_file_as_module(str(LAUNCH_FILE))
+    context = launch.LaunchContext()
+    context.launch_configurations["motor_model"] = motor_model
+    (values,) = evaluate_parameters(
+        context, normalize_parameters([module.dc_motor_encoder(LaunchConfiguration("motor_model"))])
+    )
+    expected = (
+        DC_MOTOR_ENCODER
+        if motor_model == "dc"
+        else {name: SPECS[name].default for name in DC_MOTOR_ENCODER}
+    )
+    assert values == expected
+    # Typed as the driver declares them (a double and an integer parameter).
+    assert [type(values[name]) for name in DC_MOTOR_ENCODER] == [float, int]
