@@ -28,6 +28,7 @@ setup(
         "console_scripts": [
             "fishtail-run = fishtail_bringup.run:main",
             "fishtail-record = fishtail_bringup.record:main",
+            "fishtail-view = fishtail_bringup.view:main",
         ],
     },
 )

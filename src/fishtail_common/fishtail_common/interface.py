@@ -105,6 +105,13 @@ FISH_SWIMMING = Topic(
     QosKind.LATCHED,
     "simulated fish's swimming figures, one message per beat",
 )
+#: A goal for the simulated fish, from whoever sets one (RViz's 2D Goal Pose tool publishes here).
+GOAL_POSE = Topic(
+    "goal_pose",
+    "geometry_msgs/msg/PoseStamped",
+    QosKind.RELIABLE,
+    "a goal for the simulated fish in world (shown by the live view)",
+)
 DIAGNOSTICS = Topic(
     "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosKind.RELIABLE, "every node's health"
 )
@@ -173,3 +180,6 @@ SUITE_NODES: tuple[SuiteNode, ...] = (
 )
 #: The swimming simulator: not in the default suite (``fishtail-run --swim`` adds it).
 SWIM_NODE = SuiteNode("swim", "fishtail_swim", "sim", "fishtail_swim.nodes.sim_node")
+#: The live view (a Rerun viewer's data source): not in the default suite (``fishtail-run --view``
+#: adds it).
+VIEW_NODE = SuiteNode("view", "fishtail_bringup", "fishtail-view", "fishtail_bringup.view")

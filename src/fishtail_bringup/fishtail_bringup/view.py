@@ -1,0 +1,318 @@
+"""``fishtail-view``: the suite live in a Rerun viewer (a browser or ``rerun``), or a recorded bag.
+
+Live: a ROS node in its own process, subscribing like any other client, by relative names (a
+namespace moves it) with the suite's QoS (:mod:`fishtail_common.interface`): ``tail/markers`` (the
+linkage, as RViz shows it), ``tail/state`` (sensor data: the plots of theta3, theta5 and the
+carrier speed), ``tail/symmetry`` (the verdicts), ``fish/markers`` (the fish's hull, path and tail)
+and ``goal_pose``. It serves them to Rerun viewers through :mod:`fishtail_bringup.view_rerun`
+and prints where to look.
+
+While no viewer is connected it holds no subscription but ``goal_pose`` (rare; the latest is kept
+for the next viewer), so the suite publishes no markers for it and sends it no state: the view
+then costs the suite nothing. The first viewer to connect brings the subscriptions back; the last
+to leave ends them. A suite that stops leaves the view waiting for the next one.
+
+``--bag DIR``: replay a bag of ``fishtail-record`` instead (no ROS graph), at the pace it was
+recorded (``--rate``), once the first viewer has connected; then keep serving until Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from fishtail_bringup.view_rerun import DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT, RerunView
+from fishtail_bringup.view_scene import (
+    FISH_ROOT,
+    TAIL_ROOT,
+    TailPlots,
+    goal_primitives,
+    marker_primitives,
+    symmetry_primitives,
+)
+from fishtail_common.interface import (
+    FISH_MARKERS,
+    GOAL_POSE,
+    TAIL_MARKERS,
+    TAIL_STATE,
+    TAIL_SYMMETRY,
+)
+
+PROGRAM = "fishtail-view"
+#: How often the viewers are counted (and subscriptions follow them).
+WATCH_PERIOD_S = 0.5
+#: How often the gathered tail/state samples go to the plots while someone looks.
+PLOT_PERIOD_S = 0.1
+#: While a bag waits for its first viewer, and after it ends: how often to look again.
+IDLE_PERIOD_S = 0.2
+
+
+def _say(text: str) -> None:
+    print(f"{PROGRAM}: {text}", flush=True)
+
+
+def _error(text: str) -> None:
+    print(f"{PROGRAM}: error: {text}", file=sys.stderr, flush=True)
+
+
+class ViewNode:
+    """The live view's ROS side: subscriptions that follow the viewers, into a RerunView."""
+
+    def __init__(self, view: RerunView, namespace: str = "", say: Callable[[str], None] = _say):
+        """Create the node (``namespace`` moves it with the suite) and its timers."""
+        import rclpy
+        from geometry_msgs.msg import PoseStamped
+
+        from fishtail_common.ros import qos_profile
+
+        self.view = view
+        self.say = say
+        self.node = rclpy.create_node("view", namespace=namespace or None)
+        self.plots = TailPlots()
+        self.subscriptions: list = []
+        self.viewers = 0
+        self.goal = None
+        self.logged = 0
+        self.node.create_subscription(
+            PoseStamped, GOAL_POSE.name, self._on_goal, qos_profile(GOAL_POSE)
+        )
+        self.node.create_timer(WATCH_PERIOD_S, self.watch)
+        self.plot_timer: Any = None
+
+    @property
+    def subscribed(self) -> bool:
+        """Whether the suite's topics are subscribed (someone is looking)."""
+        return bool(self.subscriptions)
+
+    def watch(self) -> None:
+        """Count the viewers; subscribe for the first, unsubscribe after the last."""
+        viewers = self.view.viewer_count()
+        if viewers != self.viewers:
+            self.say(f"{viewers} viewer(s) connected")
+            self.viewers = viewers
+        if viewers and not self.subscribed:
+            self._subscribe()
+        elif not viewers and self.subscribed:
+            self._unsubscribe()
+
+    def _subscribe(self) -> None:
+        from visualization_msgs.msg import MarkerArray
+
+        from fishtail_common.ros import qos_profile
+        from fishtail_msgs.msg import SymmetryReport, TailState
+
+        node = self.node
+        table = (
+            (MarkerArray, TAIL_MARKERS, lambda m: self._log(*marker_primitives(m, TAIL_ROOT))),
+            (MarkerArray, FISH_MARKERS, lambda m: self._log(*marker_primitives(m, FISH_ROOT))),
+            (TailState, TAIL_STATE, self.plots.add),
+            (SymmetryReport, TAIL_SYMMETRY, lambda m: self._log(*symmetry_primitives(m))),
+        )
+        self.subscriptions = [
+            node.create_subscription(kind, topic.name, callback, qos_profile(topic))
+            for kind, topic, callback in table
+        ]
+        self.plot_timer = node.create_timer(PLOT_PERIOD_S, self._flush_plots)
+        if self.goal is not None:
+            self._log(*goal_primitives(self.goal))
+
+    def _unsubscribe(self) -> None:
+        for subscription in self.subscriptions:
+            self.node.destroy_subscription(subscription)
+        self.subscriptions = []
+        if self.plot_timer is not None:
+            self.node.destroy_timer(self.plot_timer)
+            self.plot_timer = None
+        self.plots.flush()  # samples nobody will see
+
+    def _log(self, stamp_s: float | None, primitives: list) -> None:
+        self.logged += self.view.log(stamp_s, primitives)
+
+    def _flush_plots(self) -> None:
+        self._log(None, self.plots.flush())
+
+    def _on_goal(self, message) -> None:
+        self.goal = message
+        if self.subscribed:
+            self._log(*goal_primitives(message))
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
+def _port(text: str) -> int:
+    value = int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"not a TCP port: {text}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Command-line options."""
+    parser = argparse.ArgumentParser(
+        prog=PROGRAM,
+        description=__doc__.splitlines()[0],
+        epilog="Ctrl-C (or SIGTERM) stops it. docs/visualisation.md says what is shown.",
+    )
+    add = parser.add_argument
+    add("--bag", type=Path, help="replay this bag of fishtail-record instead")
+    add("--rate", type=_positive, default=1.0, help="bag replay speed, 1 = as recorded (1)")
+    add(
+        "--config",
+        type=Path,
+        help="bag: the tail's parameter file (default config/<recorded mechanism>.yaml)",
+    )
+    add(
+        "--fish-config", type=Path, help="bag: the fish's parameter file (default config/fish.yaml)"
+    )
+    add("--namespace", default="", help="namespace of the suite (relative topics)")
+    add(
+        "--bind",
+        default="127.0.0.1",
+        help="address the viewers' data port listens on (127.0.0.1: this computer only, "
+        "0.0.0.0: every interface)",
+    )
+    add(
+        "--port",
+        type=_port,
+        default=DEFAULT_GRPC_PORT,
+        help=f"Rerun data (gRPC) port, 0 = any free ({DEFAULT_GRPC_PORT})",
+    )
+    add(
+        "--web-port",
+        type=_port,
+        default=DEFAULT_WEB_PORT,
+        help=f"web viewer (HTTP) port, 0 = any free ({DEFAULT_WEB_PORT})",
+    )
+    add(
+        "--no-web",
+        action="store_true",
+        help="serve no web viewer (use the native one: rerun --connect URL)",
+    )
+    add("--duration", type=_positive, help="stop after this many seconds")
+    return parser
+
+
+def open_view(arguments: argparse.Namespace) -> RerunView:
+    """Start serving; a taken default port falls back to a free one (said), a chosen one fails."""
+    web_port = None if arguments.no_web else arguments.web_port
+    try:
+        return RerunView(arguments.bind, arguments.port, web_port)
+    except OSError as error:
+        defaults = arguments.port == DEFAULT_GRPC_PORT and web_port in (None, DEFAULT_WEB_PORT)
+        if not defaults:
+            raise
+        _say(f"{error.strerror or error}: using free ports instead")
+        return RerunView(arguments.bind, 0, None if web_port is None else 0)
+
+
+def where_to_look(view: RerunView) -> str:
+    """The line that says where to look."""
+    native = f"rerun --connect {view.grpc_url}"
+    if view.web_url is None:
+        return f"live view: {native}"
+    return f"live view at {view.web_url} (or the native viewer: {native})"
+
+
+def replay_bag(arguments: argparse.Namespace, view: RerunView, stop: threading.Event) -> int:
+    """Replay the bag into ``view`` at its pace once a viewer looks; serve until stopped."""
+    from fishtail_bringup.view_replay import BagReplay, ReplayError, fish_from_parameter_file
+    from fishtail_common.bag_types import suite_typestore
+    from fishtail_common.config_files import default_parameter_file
+
+    started = time.monotonic()
+
+    def timed_out() -> bool:
+        return bool(arguments.duration) and time.monotonic() - started >= arguments.duration
+
+    try:
+        fish_config = arguments.fish_config or default_parameter_file("fish")
+        replay = BagReplay(arguments.bag, suite_typestore(), arguments.config,
+                           fish_from_parameter_file(fish_config), default_parameter_file,
+                           arguments.namespace)  # fmt: skip
+        events = replay.events()
+        first = next(events, None)  # opens and checks the bag before anyone waits for it
+    except (ReplayError, LookupError) as error:
+        _error(str(error))
+        return 2
+    _say(f"replaying {arguments.bag} at {arguments.rate:g}x once a viewer connects")
+    while view.viewer_count() == 0 and not stop.wait(IDLE_PERIOD_S):
+        if timed_out():
+            return 0
+    if stop.is_set():
+        return 0
+    _say("a viewer connected: replaying")
+    begin_bag = None if first is None else first[0]
+    begin_wall = time.monotonic()
+    logged = 0
+    try:
+        for bag_s, stamp_s, primitives in itertools.chain([first] if first else [], events):
+            if begin_bag is None:
+                begin_bag = bag_s
+            wait = begin_wall + (bag_s - begin_bag) / arguments.rate - time.monotonic()
+            if wait > 0.0 and stop.wait(wait):
+                break
+            if timed_out():
+                break
+            logged += view.log(stamp_s, primitives)
+    except ReplayError as error:
+        _error(str(error))
+        return 2
+    for note in replay.notes:
+        _say(note)
+    _say(f"replay done: {logged} primitives logged; serving until Ctrl-C")
+    while not stop.wait(IDLE_PERIOD_S) and not timed_out():
+        pass
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``fishtail-view`` (also started by ``fishtail-run --view``)."""
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+    from rclpy.utilities import remove_ros_args
+
+    from fishtail_common.ros import install_stop_handlers, spin_until
+
+    full_argv = [PROGRAM, *(sys.argv[1:] if argv is None else argv)]
+    arguments = build_parser().parse_args(remove_ros_args(full_argv)[1:])
+    stop = install_stop_handlers()
+    try:
+        view = open_view(arguments)
+    except OSError as error:
+        _error(f"cannot serve the view: {error.strerror or error}")
+        return 2
+    _say(where_to_look(view))
+    try:
+        if arguments.bag is not None:
+            return replay_bag(arguments, view, stop)
+        rclpy.init(args=full_argv, signal_handler_options=SignalHandlerOptions.NO)
+        live = ViewNode(view, arguments.namespace)
+        if arguments.duration:
+            timer = threading.Timer(arguments.duration, stop.set)
+            timer.daemon = True
+            timer.start()
+        try:
+            spin_until([live.node], stop)
+        finally:
+            live.node.destroy_node()
+            rclpy.try_shutdown()
+        _say(f"stopped: {live.logged} primitives logged")
+        return 0
+    finally:
+        view.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,226 @@
+"""The live view's primitives into Rerun: its gRPC server, its web viewer, the layout.
+
+One :class:`RerunView` per process: a Rerun recording stream whose only sink is a gRPC server in
+this process (viewers connect to it: the web viewer this process also serves, the native ``rerun``
+viewer, anything speaking Rerun's protocol), plus the web viewer's pages over HTTP. Nothing here
+knows ROS; :mod:`fishtail_bringup.view_scene` makes the primitives.
+
+Who is looking: Rerun does not report its viewers, so :meth:`RerunView.viewer_count` counts the
+established TCP connections to the gRPC port of this process (a browser tab or a native viewer
+keeps one open while it shows the stream).
+"""
+
+from __future__ import annotations
+
+import errno
+import socket
+import urllib.parse
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from fishtail_bringup.view_scene import (
+    CARRIER_SPEED_PLOT,
+    FISH_ROOT,
+    SYMMETRY_LOG,
+    TAIL_ROOT,
+    THETA3_PLOT,
+    THETA5_PLOT,
+    Clear,
+    Colour,
+    Lines,
+    Points,
+    Primitive,
+    Series,
+    Text,
+)
+
+APPLICATION_ID = "fishtail"
+#: Rerun's own defaults, so that ``rerun --connect`` and a bookmarked page find the view.
+DEFAULT_GRPC_PORT = 9876
+DEFAULT_WEB_PORT = 9090
+#: The timeline every primitive is placed on: the messages' stamps.
+TIMELINE = "time"
+#: What the gRPC server keeps for viewers that connect later (oldest dropped beyond it).
+SERVER_MEMORY_LIMIT = "256MiB"
+#: Seconds of the scrolling plots.
+PLOT_WINDOW_S = 10.0
+PLOT_COLOURS = {
+    THETA3_PLOT: ("θ3", (51, 204, 102)),
+    THETA5_PLOT: ("θ5", (230, 120, 40)),
+    CARRIER_SPEED_PLOT: ("carrier speed", (64, 140, 242)),
+}
+
+
+def _rgba(colour: Colour) -> list[int]:
+    return [round(255 * min(max(channel, 0.0), 1.0)) for channel in colour]
+
+
+def port_is_free(host: str, port: int) -> bool:
+    """Whether a TCP server could listen on ``host:port`` now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError as error:
+            if error.errno in (errno.EADDRINUSE, errno.EACCES):
+                return False
+            raise
+    return True
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port nobody listens on now (the kernel's choice)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind((host, 0))
+        return int(probe.getsockname()[1])
+
+
+def blueprint() -> Any:
+    """The layout: the linkage and the fish on the left, plots and verdicts on the right."""
+    import rerun.blueprint as rrb
+
+    scrolling = rrb.VisibleTimeRange(
+        TIMELINE,
+        start=rrb.TimeRangeBoundary.cursor_relative(seconds=-PLOT_WINDOW_S),
+        end=rrb.TimeRangeBoundary.cursor_relative(),
+    )
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(
+                rrb.Spatial2DView(origin=TAIL_ROOT, name="tail linkage (tail frame, m)"),
+                rrb.Spatial2DView(origin=FISH_ROOT, name="fish, top view (world, m)"),
+            ),
+            rrb.Vertical(
+                rrb.TimeSeriesView(
+                    origin="plots/angles", name="θ3, θ5 [deg]", time_ranges=scrolling
+                ),
+                rrb.TimeSeriesView(
+                    origin="plots/carrier", name="carrier speed [rad/s]", time_ranges=scrolling
+                ),
+                rrb.TextLogView(origin=SYMMETRY_LOG, name="symmetry verdicts"),
+                row_shares=[2, 2, 1],
+            ),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )
+
+
+class RerunView:
+    """A Rerun recording served to viewers over gRPC (and its web viewer over HTTP)."""
+
+    def __init__(
+        self,
+        bind: str = "127.0.0.1",
+        grpc_port: int = DEFAULT_GRPC_PORT,
+        web_port: int | None = DEFAULT_WEB_PORT,
+        memory_limit: str = SERVER_MEMORY_LIMIT,
+    ) -> None:
+        """Serve the data on ``bind:grpc_port``, the web viewer on ``web_port`` (None: none).
+
+        A port of 0 is any free one. Raises OSError when a port is taken.
+        """
+        import rerun as rr
+
+        self.rr = rr
+        self.bind = bind
+        for port in (grpc_port, web_port):
+            if port and not port_is_free("" if bind == "0.0.0.0" else bind, port):
+                raise OSError(errno.EADDRINUSE, f"port {port} is in use")
+        self.grpc_port = grpc_port or free_port(bind)
+        self.recording = rr.RecordingStream(APPLICATION_ID)
+        self.recording.set_sinks(
+            rr.GrpcServerSink(bind_ip=bind, port=self.grpc_port, server_memory_limit=memory_limit),
+            default_blueprint=blueprint(),
+        )
+        host = "127.0.0.1" if bind in ("0.0.0.0", "::") else bind
+        self.grpc_url = f"rerun+http://{host}:{self.grpc_port}/proxy"
+        self.web_url: str | None = None
+        if web_port is not None:
+            # The web viewer's HTTP server listens on every interface (Rerun offers no choice);
+            # it serves the viewer's own files only, the data come from the gRPC server.
+            web_port = web_port or free_port()
+            rr.serve_web_viewer(web_port=web_port, open_browser=False, connect_to=self.grpc_url)
+            query = urllib.parse.urlencode({"url": self.grpc_url})
+            self.web_url = f"http://{host}:{web_port}/?{query}&hide_welcome_screen"
+        self._style()
+
+    def _style(self) -> None:
+        """Names and colours of the plotted series, and +y up in both pictures (static)."""
+        rr = self.rr
+        for entity, (name, colour) in PLOT_COLOURS.items():
+            rr.log(entity, rr.SeriesLines(names=name, colors=[colour]), static=True,
+                   recording=self.recording)  # fmt: skip
+        # Rerun's 2D views point y down (image rows); the frames here have y to the left of x.
+        for root in (TAIL_ROOT, FISH_ROOT):
+            rr.log(root, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True,
+                   recording=self.recording)  # fmt: skip
+
+    def viewer_count(self) -> int:
+        """Viewers connected now: established TCP connections to our gRPC port."""
+        import psutil
+
+        connections = psutil.Process().net_connections(kind="tcp")
+        return sum(
+            1
+            for connection in connections
+            if connection.status == psutil.CONN_ESTABLISHED
+            and connection.laddr
+            and connection.laddr.port == self.grpc_port
+        )
+
+    def log(self, stamp_s: float | None, primitives: Iterable[Primitive]) -> int:
+        """Log primitives at ``stamp_s`` on the time line (None: where each one says); count."""
+        rr = self.rr
+        recording = self.recording
+        if stamp_s is not None:
+            rr.set_time(TIMELINE, timestamp=stamp_s, recording=recording)
+        count = 0
+        for primitive in primitives:
+            count += 1
+            if isinstance(primitive, Series):
+                rr.send_columns(
+                    primitive.entity,
+                    indexes=[rr.TimeColumn(TIMELINE, timestamp=primitive.times_s)],
+                    columns=rr.Scalars.columns(scalars=primitive.values),
+                    recording=recording,
+                )
+            elif isinstance(primitive, Lines):
+                rr.log(
+                    primitive.entity,
+                    rr.LineStrips2D(
+                        [np.asarray(strip, dtype=np.float32) for strip in primitive.strips],
+                        radii=0.5 * primitive.width_m,
+                        colors=[_rgba(primitive.colour)],
+                    ),
+                    recording=recording,
+                )
+            elif isinstance(primitive, Points):
+                rr.log(
+                    primitive.entity,
+                    rr.Points2D(
+                        np.asarray(primitive.positions, dtype=np.float32),
+                        radii=0.5 * primitive.diameter_m,
+                        colors=[_rgba(primitive.colour)],
+                    ),
+                    recording=recording,
+                )
+            elif isinstance(primitive, Text):
+                rr.log(
+                    primitive.entity,
+                    rr.TextLog(primitive.text, level=primitive.level),
+                    recording=recording,
+                )
+            elif isinstance(primitive, Clear):
+                rr.log(primitive.entity, rr.Clear(recursive=True), recording=recording)
+        return count
+
+    def flush(self) -> None:
+        """Hand everything logged so far to the server."""
+        self.recording.flush()
+
+    def close(self) -> None:
+        """Stop serving (viewers see the stream end)."""
+        self.recording.disconnect()
