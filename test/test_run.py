@@ -106,3 +106,18 @@ def test_unknown_node_name_is_a_one_line_error():
     )  # fmt: skip
     assert completed.returncode == 2
     assert "unknown node planner: choose from driver, kinematics, monitor" in completed.stderr
+
+
+def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain):
+    """``--motor dc --load water_swimming``: the motor turns the tail in water; the line says so."""
+    completed = subprocess.run(
+        [sys.executable, "-m", "fishtail_bringup.run", "--motor", "dc", "--load",
+         "water_swimming", "--speed", "12", "--duration", "8"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+    )  # fmt: skip
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 0, output
+    assert "motor turning the oscillatory tail (water_swimming)" in output
+    lines = [line for line in output.splitlines() if " N m, " in line]
+    assert lines, output
+    assert any(" OK: symmetric" in line for line in lines), output
