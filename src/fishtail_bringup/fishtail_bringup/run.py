@@ -10,7 +10,8 @@ adds the swimming simulator (fishtail_swim's ``sim``, the fish from ``config/fis
 the simulated motor as the DC gear motor under the board's speed loop (with the default motor's
 gearbox and encoder), ``--load`` makes it turn the tail of the parameter file (in air, in water held
 at rest or towed at its swimming speed, the fish of ``--fish``); the line then shows the torque on
-the carrier and the motor's current.
+the carrier and the motor's current. ``--view`` adds the live view (``fishtail-view``, for a Rerun
+viewer: it prints where to look).
 
 Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
 kills any that hang. A node that dies early ends the run with exit status 1.
@@ -45,6 +46,7 @@ from fishtail_common.interface import (
     SWIM_NODE,
     TAIL_STATE,
     TAIL_SYMMETRY,
+    VIEW_NODE,
     SuiteNode,
 )
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
@@ -113,6 +115,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also start the swimming simulator (fishtail_swim, fish from config/fish.yaml) and "
         "show the fish's speed and heading",
+    )
+    parser.add_argument(
+        "--view",
+        action="store_true",
+        help="also start the live view (fishtail-view: the linkage, plots, verdicts and fish in a "
+        "browser or Rerun's viewer; it prints the address)",
     )
     parser.add_argument(
         "--fish",
@@ -385,6 +393,7 @@ def main(argv: list[str] | None = None) -> int:
     stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     nodes = (*arguments.nodes, SWIM_NODE) if arguments.swim else arguments.nodes
+    nodes = (*nodes, VIEW_NODE) if arguments.view else nodes
     # The driver's own parameters after --motor's, so that --driver-param overrides them.
     driver_params = motor_parameters(arguments.motor, arguments.load) + arguments.driver_param
     supervisor = Supervisor(

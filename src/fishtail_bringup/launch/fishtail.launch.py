@@ -4,6 +4,7 @@
     ros2 launch fishtail_bringup fishtail.launch.py mechanism:=undulatory namespace:=fish1
     ros2 launch fishtail_bringup fishtail.launch.py params_file:=/path/to/my_tail.yaml
     ros2 launch fishtail_bringup fishtail.launch.py swim:=true   # and the swimming simulator
+    ros2 launch fishtail_bringup fishtail.launch.py view:=true   # and the live view (Rerun)
     ros2 launch fishtail_bringup fishtail.launch.py motor_model:=dc motor_load:=water_swimming
 
 The launch file does not command the motor: publish the carrier speed yourself, e.g.
@@ -24,7 +25,7 @@ from launch.substitutions import (
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from fishtail_common.interface import SUITE_NODES, SWIM_NODE
+from fishtail_common.interface import SUITE_NODES, SWIM_NODE, VIEW_NODE
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
 
@@ -88,6 +89,14 @@ def generate_launch_description():
         output="screen",
         condition=IfCondition(LaunchConfiguration("swim")),
     )
+    view = Node(
+        package=VIEW_NODE.package,
+        executable=VIEW_NODE.executable,
+        name=VIEW_NODE.name,
+        namespace=namespace,
+        output="screen",
+        condition=IfCondition(LaunchConfiguration("view")),
+    )
     fish_params = PathJoinSubstitution(
         [FindPackageShare("fishtail_bringup"), "config", "fish.yaml"]
     )
@@ -126,7 +135,13 @@ def generate_launch_description():
                 default_value=fish_params,
                 description="ROS 2 parameter file with the simulated fish (config/fish.yaml)",
             ),
+            DeclareLaunchArgument(
+                "view",
+                default_value="false",
+                description="true: also start the live view (fishtail-view; prints where to look)",
+            ),
             *nodes,
             simulator,
+            view,
         ]
     )

@@ -60,7 +60,7 @@ def test_declares_the_arguments(description):
     names = [argument.name for argument in description.get_launch_arguments()]
     assert names == [
         "mechanism", "params_file", "namespace", "backend", "motor_model", "motor_load", "swim",
-        "fish_params_file",
+        "fish_params_file", "view",
     ]  # fmt: skip
 
 
@@ -103,7 +103,9 @@ def test_swim_adds_the_simulator_with_the_installed_fish(description, swim, laun
     (simulator,) = [
         e
         for e in description.entities
-        if isinstance(e, launch_ros_actions.Node) and e.condition is not None
+        if isinstance(e, launch_ros_actions.Node)
+        and e.condition is not None
+        and e.node_package == "fishtail_swim"
     ]
     assert (simulator.node_package, simulator.node_executable) == ("fishtail_swim", "sim")
     assert "sim" in console_scripts("fishtail_swim")
@@ -115,6 +117,19 @@ def test_swim_adds_the_simulator_with_the_installed_fish(description, swim, laun
     ]
     path = Path(perform_substitutions(context, fish.default_value))
     assert path.is_file() and path.read_text() == (SRC.parent / "config" / "fish.yaml").read_text()
+
+
+@pytest.mark.parametrize(("view", "launched"), [("false", False), ("true", True)])
+def test_view_adds_the_live_view(description, view, launched):
+    context = launch.LaunchContext()
+    context.launch_configurations["view"] = view
+    (node,) = [
+        e
+        for e in description.entities
+        if isinstance(e, launch_ros_actions.Node) and e.node_package == "fishtail_bringup"
+    ]
+    assert node.node_executable == "fishtail-view" in console_scripts("fishtail_bringup")
+    assert node.condition.evaluate(context) is launched
 
 
 @pytest.mark.parametrize("motor_model", ["first_order", "dc"])

@@ -1,0 +1,426 @@
+"""fishtail-view beside the suite on the simulated motor, watched by real Rerun clients.
+
+The client is Rerun's own ``rerun`` (the native viewer's program, from the rerun-sdk wheel) told to
+save what it receives to an .rrd file instead of drawing it; the file is read back with
+``rerun.chunk``. The web viewer is loaded by headless Chromium (skipped where it is missing).
+The view's subscriptions are watched from the probe: none while nobody looks.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Writer
+from rosbags.rosbag2.enums import StoragePlugin
+
+from fishtail_bringup.view_rerun import free_port
+from fishtail_common.bag_types import suite_typestore
+from fishtail_common.interface import (
+    FISH_ODOM,
+    GOAL_POSE,
+    TAIL_MARKERS,
+    TAIL_STATE,
+    TAIL_SYMMETRY,
+)
+from fishtail_kinematics.engine.geometry import OscillatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail
+from fishtail_msgs.msg import TailState
+
+#: The client saves a stream, whose .rrd has no footer until it ends; reading it early is fine.
+pytestmark = pytest.mark.filterwarnings("ignore:RRD file has no footer")
+
+VIEW_MODULE = "fishtail_bringup.view"
+SPEED_RAD_S = 4.0
+START_TIMEOUT_S = 30.0
+DATA_TIMEOUT_S = 30.0
+#: Rerun's programs read their settings here; the tests keep them in tmp_path, with usage
+#: analytics off (they would try to reach the internet).
+RERUN_SETTINGS = ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "XDG_CACHE_HOME")
+#: The tail link's colour (engine.markers.TAIL_COLOUR) and the drive links' (LINK_COLOUR), 0-255.
+TAIL_LINK_RGB = (51, 204, 102)
+LINK_RGB = (64, 140, 242)
+
+
+@pytest.fixture
+def rerun_settings(tmp_path, monkeypatch):
+    """Rerun's settings in tmp_path with analytics disabled, for every process started here."""
+    for name in RERUN_SETTINGS:
+        monkeypatch.setenv(name, str(tmp_path / name.lower()))
+    monkeypatch.setenv("CI", "1")  # Rerun sends no analytics on CI either
+    rerun = shutil.which("rerun")
+    assert rerun, "the rerun program of the rerun-sdk wheel is not on PATH"
+    subprocess.run([rerun, "analytics", "disable"], check=True, capture_output=True, timeout=30)
+    return rerun
+
+
+def wait_for_output(ros, process, text: str, timeout: float = START_TIMEOUT_S) -> str:
+    """Spin until ``text`` appears in the process's stdout; the line that has it."""
+    ros.spin_until(
+        lambda: text in process.stdout() or process.returncode is not None,
+        timeout,
+        f"{text!r} from {process.name}",
+    )
+    assert process.returncode is None, process.output()
+    return next(line for line in process.stdout().splitlines() if text in line)
+
+
+def start_view(start_process, ros, *options: str):
+    """fishtail-view on free ports; (process, gRPC url, web url)."""
+    grpc, web = free_port(), free_port()
+    argv = [sys.executable, "-m", VIEW_MODULE, "--port", str(grpc), "--web-port", str(web)]
+    view = start_process("view", [*argv, *options])
+    line = wait_for_output(ros, view, "live view at")
+    web_url = line.split("live view at ")[1].split()[0]
+    return view, f"rerun+http://127.0.0.1:{grpc}/proxy", web_url
+
+
+def start_client(start_process, rerun: str, url: str, path: Path):
+    """Rerun's program as a client of ``url``, saving what it receives to ``path``."""
+    argv = [rerun, url, "--save", str(path), "--bind", "127.0.0.1", "--port", str(free_port())]
+    return start_process("rerun-client", argv)
+
+
+def received(path: Path) -> dict[str, list]:
+    """Entity path -> record batches in an .rrd (one still being written: what is complete)."""
+    from rerun.chunk import RrdReader
+
+    entities: dict[str, list] = {}
+    if not path.exists() or path.stat().st_size == 0:
+        return entities
+    try:
+        for chunk in RrdReader(path).stream():
+            entities.setdefault(chunk.entity_path, []).append(chunk.to_record_batch())
+    except Exception:  # noqa: BLE001 - a file cut mid-message: what came before it counts
+        pass
+    return entities
+
+
+def column(batches: list, name: str) -> np.ndarray:
+    """Every value of a component column over the batches, flattened."""
+    values = []
+    for batch in batches:
+        if name in batch.schema.names:
+            for cell in batch.column(name).to_pylist():
+                values.extend(cell or [])
+    return np.array(values, dtype=float)
+
+
+def suite(start_node, ros, config_dir):
+    """Driver, kinematics and monitor on the simulated motor, running at SPEED_RAD_S."""
+    processes = [
+        start_node("driver"),
+        start_node("kinematics", params_file=config_dir / "oscillatory.yaml"),
+        start_node("monitor", params_file=config_dir / "oscillatory.yaml"),
+    ]
+    ros.command_speed(SPEED_RAD_S)
+    states = ros.record(TailState, TAIL_STATE.name)
+    ros.spin_until(
+        lambda: len(states) and abs(states[-1].motor_velocity - SPEED_RAD_S) < 0.05 * SPEED_RAD_S,
+        START_TIMEOUT_S,
+        f"the carrier at {SPEED_RAD_S:g} rad/s",
+    )
+    return processes
+
+
+def test_a_rerun_client_receives_the_tail_and_the_plots(
+    ros, start_node, start_process, rerun_settings, config_dir, tmp_path
+):
+    nodes = suite(start_node, ros, config_dir)
+    view, url, _ = start_view(start_process, ros)
+    ros.wait_for_subscribers(TAIL_STATE.name, 2)  # the monitor and the probe
+    wait_for_output(ros, view, "live view at")
+    # Nobody looks: the view subscribes to nothing of the suite, so no markers are built for it.
+    assert ros.node.count_subscribers(TAIL_MARKERS.name) == 0
+    assert ros.node.count_subscribers(TAIL_STATE.name) == 2
+    rrd = tmp_path / "client.rrd"
+    client = start_client(start_process, rerun_settings, url, rrd)
+    ros.wait_for_subscribers(TAIL_MARKERS.name, 1)
+    ros.wait_for_subscribers(TAIL_STATE.name, 3)  # and the view, sensor-data QoS
+    needed = {"/tail/links", "/tail/tail_link", "/tail/ring", "/plots/angles/theta3",
+              "/plots/carrier/speed"}  # fmt: skip
+    ros.spin_until(lambda: needed <= set(received(rrd)), DATA_TIMEOUT_S, f"{needed} at the client")
+    ros.spin_until(
+        lambda: (
+            len(column(received(rrd).get("/plots/angles/theta3", []), "Scalars:scalars")) >= 500
+        ),
+        DATA_TIMEOUT_S,
+        "2.5 s of theta3 (more than a beat) at the client",
+    )
+    client.stop()
+    entities = received(rrd)
+    theta3 = column(entities["/plots/angles/theta3"], "Scalars:scalars")
+    speed = column(entities["/plots/carrier/speed"], "Scalars:scalars")
+    # The report's mechanism swings about +-26 degrees; the simulated motor holds 4 rad/s.
+    assert 20.0 < theta3.max() < 30.0 and -30.0 < theta3.min() < -20.0
+    assert np.median(speed) == pytest.approx(SPEED_RAD_S, rel=0.05)
+    links = entities["/tail/links"][-1].column("LineStrips2D:strips").to_pylist()[-1]
+    assert len(links) >= 2  # segments of the drive links, in the tail frame
+    assert all(abs(x) < 0.6 and abs(y) < 0.6 for strip in links for x, y in strip)
+    assert all(node.returncode is None for node in nodes)
+    assert view.returncode is None
+
+
+def test_a_client_that_leaves_and_a_suite_that_stops_leave_the_view_running(
+    ros, start_node, start_process, rerun_settings, config_dir, tmp_path
+):
+    driver, kinematics, monitor = suite(start_node, ros, config_dir)
+    view, url, _ = start_view(start_process, ros)
+    client = start_client(start_process, rerun_settings, url, tmp_path / "first.rrd")
+    ros.wait_for_subscribers(TAIL_MARKERS.name, 1)
+    wait_for_output(ros, view, "1 viewer(s) connected")
+    client.stop()
+    # The view lets go of the suite's topics, and nothing else stops.
+    ros.spin_until(
+        lambda: ros.node.count_subscribers(TAIL_MARKERS.name) == 0,
+        START_TIMEOUT_S,
+        "the view to unsubscribe after its client left",
+    )
+    assert all(p.returncode is None for p in (driver, kinematics, monitor, view))
+    # The suite stops; the view waits for it and still serves a client.
+    for process in (driver, kinematics, monitor):
+        process.stop()
+    ros.spin_until(
+        lambda: ros.node.count_publishers(TAIL_STATE.name) == 0, START_TIMEOUT_S, "no suite"
+    )
+    again = tmp_path / "again.rrd"
+    start_client(start_process, rerun_settings, url, again)
+    ros.spin_until(
+        lambda: view.stdout().count("1 viewer(s) connected") >= 2,
+        START_TIMEOUT_S,
+        "the second client at the view",
+    )
+    ros.spin_until(lambda: "/tail" in received(again), DATA_TIMEOUT_S, "the layout at the client")
+    assert view.returncode is None, view.output()
+
+
+# ---- the web viewer in headless Chromium
+
+
+class Chromium:
+    """Headless Chromium driven over its DevTools pipe (no extra packages)."""
+
+    def __init__(self, executable: str, log_path: Path) -> None:
+        """Start it with a blank page; nothing it loads may leave this machine."""
+        ours_read, theirs_write = os.pipe()
+        theirs_read, ours_write = os.pipe()
+
+        def pipes_on_3_and_4() -> None:  # the DevTools pipe's fixed descriptors
+            read, write = os.dup(theirs_read), os.dup(theirs_write)
+            os.dup2(read, 3)
+            os.dup2(write, 4)
+
+        argv = [
+            executable, "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader", "--window-size=1280,800", "--remote-debugging-pipe",
+            "--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1", "--no-first-run",
+            f"--user-data-dir={log_path.parent / 'chromium-profile'}", "about:blank",
+        ]  # fmt: skip
+        with open(log_path, "wb") as log:
+            self.process = subprocess.Popen(
+                argv, stdin=subprocess.DEVNULL, stdout=log, stderr=log, close_fds=False,
+                preexec_fn=pipes_on_3_and_4, start_new_session=True,
+            )  # fmt: skip
+        for descriptor in (theirs_read, theirs_write):
+            os.close(descriptor)
+        self._read, self._write = ours_read, ours_write
+        self._buffer = b""
+        self._next_id = 0
+        self.session: str | None = None
+
+    def call(self, method: str, params: dict | None = None, timeout: float = 30.0) -> dict:
+        """One DevTools command; its result."""
+        self._next_id += 1
+        request = {"id": self._next_id, "method": method, "params": params or {}}
+        if self.session is not None:
+            request["sessionId"] = self.session
+        os.write(self._write, json.dumps(request).encode() + b"\0")
+        deadline = time.monotonic() + timeout
+        while True:
+            while b"\0" in self._buffer:
+                raw, self._buffer = self._buffer.split(b"\0", 1)
+                message = json.loads(raw)
+                if message.get("id") == self._next_id:
+                    assert "error" not in message, message
+                    return message["result"]
+            assert time.monotonic() < deadline, f"no answer to {method}"
+            chunk = os.read(self._read, 1 << 20)
+            assert chunk, "Chromium closed its DevTools pipe"
+            self._buffer += chunk
+
+    def open(self, url: str) -> None:
+        """A tab at ``url``, to which later calls go."""
+        target = self.call("Target.createTarget", {"url": url})["targetId"]
+        self.session = self.call("Target.attachToTarget", {"targetId": target, "flatten": True})[
+            "sessionId"
+        ]
+
+    def screenshot(self) -> bytes:
+        """The tab as PNG."""
+        return base64.b64decode(self.call("Page.captureScreenshot", {"format": "png"})["data"])
+
+    def close(self) -> None:
+        """End the browser."""
+        os.close(self._write)
+        os.close(self._read)
+        self.process.terminate()
+        try:
+            self.process.wait(10)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.process.pid, 9)
+            self.process.wait()
+
+
+def pixels_near(png: bytes, rgb: tuple[int, int, int], tolerance: int = 40) -> int:
+    """How many pixels of the PNG are within ``tolerance`` of ``rgb`` in every channel."""
+    from PIL import Image
+
+    image = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=int)
+    return int(np.count_nonzero(np.all(np.abs(image - np.array(rgb)) <= tolerance, axis=-1)))
+
+
+def test_the_web_viewer_in_headless_chromium_shows_the_linkage(
+    ros, start_node, start_process, rerun_settings, config_dir, tmp_path
+):
+    executable = shutil.which("chromium") or shutil.which("chromium-browser")
+    if executable is None:
+        pytest.skip("no chromium on PATH (Debian: apt-get install chromium)")
+    suite(start_node, ros, config_dir)
+    view, _, web_url = start_view(start_process, ros)
+    browser = Chromium(executable, tmp_path / "chromium.log")
+    shot = tmp_path / "web_viewer.png"
+    try:
+        browser.open(web_url)
+        ros.wait_for_subscribers(TAIL_MARKERS.name, 1, timeout=60.0)  # the page connected
+
+        def linkage_drawn() -> bool:
+            png = browser.screenshot()
+            shot.write_bytes(png)
+            return pixels_near(png, TAIL_LINK_RGB) > 50 and pixels_near(png, LINK_RGB) > 50
+
+        ros.spin_until(linkage_drawn, 90.0, f"the linkage in the web viewer (last: {shot})")
+    finally:
+        browser.close()
+    assert view.returncode is None
+    print(f"screenshot: {shot}")
+
+
+# ---- a recorded bag
+
+
+def write_bag(path: Path, seconds: float = 3.0, rate_hz: float = 200.0) -> Path:
+    """A bag as fishtail-record writes one: tail/state, tail/symmetry, fish/odom, a goal."""
+    store = suite_typestore()
+    types = store.types
+    tail = OscillatoryTail(OscillatoryGeometry())
+    t0 = 1_700_000_000_000_000_000
+
+    def header(stamp_ns: int, frame: str):
+        time_ = types["builtin_interfaces/msg/Time"](
+            sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9
+        )
+        return types["std_msgs/msg/Header"](stamp=time_, frame_id=frame)
+
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        topics = {t.name: writer.add_connection(f"/{t.name}", t.type, typestore=store)
+                  for t in (TAIL_STATE, TAIL_SYMMETRY, FISH_ODOM, GOAL_POSE)}  # fmt: skip
+
+        def write(topic, message, stamp_ns):
+            data = store.serialize_cdr(message, topic.type)
+            writer.write(topics[topic.name], stamp_ns + 100_000, data)
+
+        point, vector = types["geometry_msgs/msg/Point"], types["geometry_msgs/msg/Vector3"]
+        quaternion = types["geometry_msgs/msg/Quaternion"]
+        pose = types["geometry_msgs/msg/Pose"]
+        goal = types["geometry_msgs/msg/PoseStamped"](
+            header=header(t0, "world"),
+            pose=pose(position=point(x=1.0, y=0.5, z=0.0),
+                      orientation=quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+        )  # fmt: skip
+        write(GOAL_POSE, goal, t0)
+        for k in range(int(seconds * rate_hz)):
+            stamp = t0 + round(k * 1e9 / rate_hz)
+            s = tail.solve(SPEED_RAD_S * k / rate_hz, SPEED_RAD_S)
+            state = types["fishtail_msgs/msg/TailState"](
+                header=header(stamp, "tail_mechanism"), mechanism=1,
+                motor_angle=s.motor_angle, motor_velocity=s.motor_velocity,
+                slider_position=s.slider_position, slider_velocity=s.slider_velocity,
+                theta1=s.theta1, theta1_dot=s.theta1_dot, theta2=s.theta2,
+                theta2_dot=s.theta2_dot, theta3=s.theta3, theta3_dot=s.theta3_dot,
+                theta4=math.nan, theta4_dot=math.nan, pin_u_distance=math.nan,
+                pin_u_distance_rate=math.nan, slider_a_distance=math.nan,
+                slider_a_distance_rate=math.nan, theta5=math.nan, theta5_dot=math.nan,
+                tip=point(x=s.tip_x, y=s.tip_y, z=0.0),
+                tip_velocity=vector(x=s.tip_x_dot, y=s.tip_y_dot, z=0.0),
+            )  # fmt: skip
+            write(TAIL_STATE, state, stamp)
+            odometry = types["nav_msgs/msg/Odometry"](
+                header=header(stamp, "world"), child_frame_id="base_link",
+                pose=types["geometry_msgs/msg/PoseWithCovariance"](
+                    pose=pose(position=point(x=0.05 * k / rate_hz, y=0.0, z=0.0),
+                              orientation=quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
+                    covariance=np.zeros(36)),
+                twist=types["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=types["geometry_msgs/msg/Twist"](
+                        linear=vector(x=0.05, y=0.0, z=0.0), angular=vector(x=0.0, y=0.0, z=0.0)),
+                    covariance=np.zeros(36)),
+            )  # fmt: skip
+            write(FISH_ODOM, odometry, stamp)
+            if k and k % 300 == 0:
+                report = types["fishtail_msgs/msg/SymmetryReport"](
+                    header=header(stamp, "tail_mechanism"), beat_index=k // 300 - 1,
+                    positive_peak=0.45, negative_peak=-0.45, amplitude=0.45, mean_angle=0.0,
+                    positive_time_share=0.5, negative_time_share=0.5, period=1.57,
+                    frequency=0.64, verdict=0, message="symmetric",
+                )  # fmt: skip
+                write(TAIL_SYMMETRY, report, stamp)
+    return path
+
+
+def test_a_bag_replays_at_its_pace_to_a_client(ros, start_process, rerun_settings, tmp_path):
+    bag = write_bag(tmp_path / "bag")
+    view, url, _ = start_view(start_process, ros, "--bag", str(bag))
+    wait_for_output(ros, view, "once a viewer connects")
+    rrd = tmp_path / "replay.rrd"
+    client = start_client(start_process, rerun_settings, url, rrd)
+    started = time.monotonic()
+    wait_for_output(ros, view, "replay done")
+    took = time.monotonic() - started
+    ros.spin_until(
+        lambda: (
+            len(column(received(rrd).get("/plots/angles/theta3", []), "Scalars:scalars")) >= 600
+        ),
+        DATA_TIMEOUT_S,
+        "every theta3 sample of the bag at the client",
+    )
+    client.stop()
+    entities = received(rrd)
+    assert took >= 2.5  # 3 s of bag, at its own pace (not as fast as it reads)
+    for entity in ("/tail/links", "/tail/tip_trail", "/fish/body", "/fish/path", "/fish/tail",
+                   "/fish/goal", "/symmetry"):  # fmt: skip
+        assert entity in entities, (entity, sorted(entities))
+    theta3 = column(entities["/plots/angles/theta3"], "Scalars:scalars")
+    assert len(theta3) == 600 and 20.0 < theta3.max() < 30.0
+    assert "linkage drawn with the geometry of" in view.stdout()
+    assert view.returncode is None  # still serving after the replay
+
+
+def test_fishtail_run_view_starts_the_view_and_says_where_to_look(ros_domain, rerun_settings):
+    completed = subprocess.run(
+        [sys.executable, "-m", "fishtail_bringup.run", "--view", "--speed", "8", "--duration", "6"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 0, output
+    assert "[view] fishtail-view: live view at http://127.0.0.1:" in output, output
+    assert "non-zero status" not in output and "exited early" not in output
