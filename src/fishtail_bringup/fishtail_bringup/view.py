@@ -96,6 +96,8 @@ class ViewNode:
         viewers = self.view.viewer_count()
         if viewers != self.viewers:
             self.say(f"{viewers} viewer(s) connected")
+            if viewers > self.viewers:
+                self.view.forget_shown()
             self.viewers = viewers
         if viewers and not self.subscribed:
             self._subscribe()
