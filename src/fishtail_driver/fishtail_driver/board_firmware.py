@@ -37,9 +37,9 @@ import dataclasses
 from collections.abc import Callable
 
 from fishtail_driver.board_motors import MOTOR_KINDS, make_motor
-from fishtail_driver.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
 from fishtail_driver.firmware_pid import FirmwareSpeedLoop, FrameTimer, PidGains
 from fishtail_driver.protocol import AUTO_STOP_INTERVAL_MS, Scale, wrap_int16, wrap_int32
+from fishtail_swim.dynamics.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
 
 VARIANTS = ("hbrobotics", "joshnewans")
 _ATOI_SPACE = b" \t\n\v\f\r"
@@ -75,7 +75,7 @@ class FirmwareConfig:
     encoder_offset: int = 0
     arg_buffer_bytes: int = 32
     motor: str = "ideal"
-    #: What the motor of each channel turns (:mod:`fishtail_driver.dc_motor`'s load callables):
+    #: What the motor of each channel turns (the DC motor model's load callables):
     #: the tail, on both channels, so that the one a host drives turns it. ``motor`` dc only.
     load: LoadTorque = zero_load
     load_inertia: LoadInertia = zero_load_inertia

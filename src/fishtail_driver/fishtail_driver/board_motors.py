@@ -15,7 +15,7 @@ what the board's ``setMotorSpeeds()`` writes, whenever it writes it: at every PI
   A first-order lag has no voltage, so the PWM is mapped to its target as the board sees it: a
   linear, load-free motor whose full duty gives ``max_speed_rad_s``. The loop settles within its
   dead band of the target.
-- ``dc`` (:class:`DcChannelMotor`): the DC gear motor of :mod:`fishtail_driver.dc_motor` (the
+- ``dc`` (:class:`DcChannelMotor`): the DC gear motor of :mod:`fishtail_swim.dynamics.dc_motor` (the
   Pololu 37D defaults) with the gearbox ratio of the board's encoder scale, at duty PWM / 255,
   unloaded or turning a load (``load``, ``load_inertia``: the tail, ``fishtail-fake-board
   --load``): the speed ripple of the loop's integer arithmetic and of the load, as the simulated
@@ -31,7 +31,9 @@ import dataclasses
 import math
 from typing import Protocol
 
-from fishtail_driver.dc_motor import (
+from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
+from fishtail_driver.protocol import PWM_MAX, Scale
+from fishtail_swim.dynamics.dc_motor import (
     DcMotor,
     DcMotorParameters,
     LoadInertia,
@@ -39,8 +41,6 @@ from fishtail_driver.dc_motor import (
     zero_load,
     zero_load_inertia,
 )
-from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
-from fishtail_driver.protocol import PWM_MAX, Scale
 
 MOTOR_KINDS = ("ideal", "first-order", "dc")
 
@@ -100,7 +100,7 @@ class DcChannelMotor:
         load: LoadTorque = zero_load,
         load_inertia: LoadInertia = zero_load_inertia,
     ) -> None:
-        """At rest, duty 0, turning ``load`` (:mod:`fishtail_driver.dc_motor`; none by default)."""
+        """At rest, duty 0, turning ``load`` (the DC motor's; none by default)."""
         self.motor = DcMotor(parameters, load, load_inertia)
         self.scale = scale
 

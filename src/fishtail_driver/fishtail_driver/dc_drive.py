@@ -5,8 +5,8 @@ per PID frame exactly as the serial backend sends it (:meth:`fishtail_driver.pro
 ticks_per_frame`: rounded, clamped to the board's 16-bit ``int``) and reaches
 :class:`~fishtail_driver.firmware_pid.FirmwareSpeedLoop` as an ``m`` would (0 is ``m 0 0``: PWM
 0 at once, loop reset and stopped). Every PID frame (``1000 // PID_RATE`` ms) the loop reads the
-encoder and sets the PWM; between frames the :class:`~fishtail_driver.dc_motor.DcMotor` runs at
-that duty (PWM / 255). The encoder counts ``counts_per_revolution`` per motor-shaft turn,
+encoder and sets the PWM; between frames the DC motor (:mod:`fishtail_swim.dynamics.dc_motor`) runs
+at that duty (PWM / 255). The encoder counts ``counts_per_revolution`` per motor-shaft turn,
 ``gear_ratio`` motor turns per carrier turn, floored as a counter sees them. The board's 2 s
 auto-stop is not modelled: the simulated backend needs no keep-alive (the node's watchdog stops
 it).
@@ -15,7 +15,7 @@ It has the interface of :class:`fishtail_driver.motor_model.SimulatedMotor` (see
 :class:`fishtail_driver.backends.SimMotor`), plus the carrier torque as the effort and the
 current and powers in its status.
 
->>> from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
+>>> from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters
 >>> drive = PidDrivenDcMotor(DcMotor(DcMotorParameters()), Scale(64, 30.0))
 >>> drive.command(4.0)
 >>> drive.loop.set_points[0].target_ticks_per_frame   # 4 rad/s * 1920 / 2 pi * 0.033 s = 40.3
@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import math
 
-from fishtail_driver.dc_motor import DcMotor
 from fishtail_driver.firmware_pid import FirmwareSpeedLoop, FrameTimer, PidGains
 from fishtail_driver.protocol import PWM_MAX, Scale
+from fishtail_swim.dynamics.dc_motor import DcMotor
 
 
 class PidDrivenDcMotor:

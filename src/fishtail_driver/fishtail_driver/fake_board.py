@@ -41,8 +41,8 @@ from pathlib import Path
 from fishtail_driver.board_firmware import VARIANTS
 from fishtail_driver.board_motors import MOTOR_KINDS
 from fishtail_driver.board_pty import BoardConfig, FakeBoard
-from fishtail_driver.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD, tail_load_from_files
+from fishtail_swim.dynamics.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -8,8 +8,8 @@ The sim backend's motor is ``motor_model``'s: ``first_order`` (a speed lag,
 ``sim_time_constant_sec``) or ``dc`` (a DC gear motor, ``motor_*``, ``supply_voltage_v``,
 ``gear_ratio``, ``gearbox_efficiency``, ``rotor_inertia_kg_m2``, the frictions, under the board
 firmware's speed loop with ``pid_k*`` every ``1000 // serial_pid_rate_hz`` ms). The ``dc``
-defaults are a Pololu 37D 12 V motor (:class:`fishtail_driver.dc_motor.DcMotorParameters`), whose
-30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
+defaults are a Pololu 37D 12 V motor (:class:`fishtail_swim.dynamics.dc_motor.
+DcMotorParameters`), whose 30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
 ``encoder_counts_per_revolution:=64`` (not those parameters' defaults: :data:`DC_MOTOR_ENCODER`).
 With ``motor_load`` other than ``none`` the DC motor turns the tail (:mod:`fishtail_driver.
 sim_load`); the node then declares the tail's, links' and fish's parameters as well.
@@ -23,7 +23,11 @@ from fishtail_common.interface import CARRIER_JOINT
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_driver.backends import MotorBackend, SimBackend, SimMotor
 from fishtail_driver.dc_drive import PidDrivenDcMotor
-from fishtail_driver.dc_motor import (
+from fishtail_driver.firmware_pid import PidGains
+from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
+from fishtail_driver.protocol import Scale
+from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
+from fishtail_swim.dynamics.dc_motor import (
     DcMotor,
     DcMotorParameters,
     LoadInertia,
@@ -31,10 +35,6 @@ from fishtail_driver.dc_motor import (
     zero_load,
     zero_load_inertia,
 )
-from fishtail_driver.firmware_pid import PidGains
-from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
-from fishtail_driver.protocol import Scale
-from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
 
 ParameterValues = Mapping[str, ParameterValue]
 
@@ -223,7 +223,7 @@ def make_backend(
     """The backend the ``backend`` parameter names, configured from ``values`` (not started).
 
     ``load`` and ``load_inertia`` are the carrier's load for a simulated motor that feels one
-    (``motor_model`` dc; :mod:`fishtail_driver.dc_motor` says what they return); none by default.
+    (``motor_model`` dc; the DC motor model's docs say what they return); none by default.
     ValueError, with the reason, for settings the backend cannot work with.
     """
     return _BACKENDS[str(values["backend"])](values, load, load_inertia)

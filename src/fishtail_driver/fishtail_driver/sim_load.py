@@ -5,8 +5,9 @@ turns the tail: the linkage's inertia and, in water, Lighthill's force on the fi
 (:class:`fishtail_swim.dynamics.motor_load.TailLoad`: ``torque(phi, omega)``,
 ``inertia(phi)``). The tail, its links' masses and the fish are the parameters of the kinematics
 node and of the swimming simulator (``config/<mechanism>.yaml``, ``config/fish.yaml``), built by
-:mod:`fishtail_swim.tail_and_fish`. fishtail_swim is imported only here, when a load is built: the
-driver runs without it as long as ``motor_load`` is ``none``.
+:mod:`fishtail_swim.tail_and_fish`. Those are imported only here, when a load is built: they bring
+the swimming dynamics (numpy, numba) with them, which a driver without a load (the serial
+backend on the fish's computer, the default simulated motor) need not load at start.
 
 Plain Python: the node declares and builds through these functions; ``fishtail-fake-board
 --load`` reads the same files.
@@ -26,7 +27,7 @@ if TYPE_CHECKING:
     from fishtail_swim.dynamics.motor_load import TailLoad
 
 #: ``motor_load`` values: fishtail_swim.dynamics.motor_load.SURROUNDINGS (a test holds them
-#: equal), written here so that the driver's parameters need no fishtail_swim.
+#: equal), written here so that declaring the driver's parameters loads no dynamics.
 MOTOR_LOADS = ("none", "air", "water_held", "water_swimming")
 NO_LOAD = "none"
 #: The parameter files read when none is named (``config/<name>.yaml``).

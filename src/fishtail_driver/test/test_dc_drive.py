@@ -16,9 +16,9 @@ import pytest
 from fishtail_driver import dc_drive
 from fishtail_driver.backends import SimBackend
 from fishtail_driver.dc_drive import PidDrivenDcMotor
-from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
 from fishtail_driver.parameters import DRIVER_PARAMETERS, make_backend
 from fishtail_driver.protocol import Scale
+from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters
 
 SCALE = Scale(counts_per_revolution=64, gear_ratio=30.0)
 DC_VALUES = {"motor_model": "dc", "gear_ratio": 30.0, "encoder_counts_per_revolution": 64}

@@ -18,10 +18,10 @@ import pytest
 
 from fishtail_driver.board_firmware import Firmware, FirmwareConfig
 from fishtail_driver.dc_drive import PidDrivenDcMotor
-from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
 from fishtail_driver.fake_board import main as fake_board_main
 from fishtail_driver.protocol import Scale
 from fishtail_driver.sim_load import tail_load_from_files
+from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters
 
 CONFIG = Path(__file__).resolve().parents[3] / "config"
 POLOLU = {"counts_per_revolution": 64, "gear_ratio": 30.0}

@@ -9,9 +9,9 @@ import serial
 
 from fishtail_driver.board_firmware import Firmware, FirmwareConfig
 from fishtail_driver.dc_drive import PidDrivenDcMotor
-from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
 from fishtail_driver.firmware_pid import FirmwareSpeedLoop, PidGains
 from fishtail_driver.protocol import Scale
+from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters
 
 #: The Pololu 37D 30:1 with its 64-count encoder: 40 ticks per 33 ms frame = 3.97 rad/s.
 POLOLU = {"counts_per_revolution": 64, "gear_ratio": 30.0}

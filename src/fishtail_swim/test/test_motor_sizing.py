@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from fishtail_driver.dc_motor import DcMotorParameters
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_swim.dynamics.dc_motor import DcMotorParameters
 from fishtail_swim.dynamics.fish import FishParameters
 from fishtail_swim.dynamics.motor_load import TailLoad
 from fishtail_swim.offline.cli import main

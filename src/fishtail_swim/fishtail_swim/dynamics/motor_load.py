@@ -1,7 +1,7 @@
 """What the tail asks of the motor: the carrier's load torque and inertia for a motor model.
 
-A DC motor model (``fishtail_driver.dc_motor``) takes its load as two callables of the carrier
-angle phi and speed omega: ``torque(phi, omega)``, the torque the load needs apart from its
+A DC motor model (:mod:`~fishtail_swim.dynamics.dc_motor`) takes its load as two callables of the
+carrier angle phi and speed omega: ``torque(phi, omega)``, the torque the load needs apart from its
 inertia (the linkage's ½ J'(phi) omega² and the water's reaction), and ``inertia(phi)``, the
 linkage's reduced inertia J(phi), which belongs on the motor's left-hand side. :class:`TailLoad`
 gives them for one tail in one of four surroundings (:data:`SURROUNDINGS`):

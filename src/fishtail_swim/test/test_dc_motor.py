@@ -1,19 +1,17 @@
 """The DC gear motor against hand-derived steady states, stall, stiction and the energy balance.
 
-Notation of :mod:`fishtail_driver.dc_motor`: carrier speed ω, gear ratio N, the motor turns at
+Notation of the DC motor model: carrier speed ω, gear ratio N, the motor turns at
 N ω; friction and inertia at the motor shaft; a constant carrier load T needs T/η from the motor
 while the motor drives it and gives back η T while it drives the motor.
 """
 
 from __future__ import annotations
 
-import doctest
 import math
 
 import pytest
 
-from fishtail_driver import dc_motor
-from fishtail_driver.dc_motor import DcMotor, DcMotorParameters
+from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters
 
 P = DcMotorParameters()  # the Pololu 37D 30:1 defaults
 N, K, R, V = P.gear_ratio, P.torque_constant_n_m_a, P.resistance_ohm, P.supply_voltage_v
@@ -23,29 +21,6 @@ B, TC, ETA = P.viscous_friction_n_m_s, P.coulomb_friction_n_m, P.gearbox_efficie
 def constant(torque: float):
     """A load of constant torque at the carrier."""
     return lambda phi, phi_dot: torque
-
-
-def test_doctests():
-    result = doctest.testmod(dc_motor)
-    assert result.failed == 0 and result.attempted >= 4
-
-
-@pytest.mark.parametrize("duty", [1.0, 0.5, -1.0])
-def test_steady_no_load_speed(duty):
-    # k I = b ω_m + τ_c s with I = (d V - k ω_m)/R:
-    # ω_m = (d V / k) (1 - τ_c s R / (k d V)) / (1 + b R / k²)
-    volts = duty * V
-    motor_speed = volts / K * (1 - TC * R / (K * abs(volts))) / (1 + B * R / K**2)
-    motor = DcMotor(P)
-    motor.set_duty(duty)
-    motor.advance(1.5)  # 29 mechanical time constants
-    assert motor.speed_rad_s == pytest.approx(motor_speed / N, rel=1e-9)
-    if duty == 1.0:
-        assert P.no_load_speed_rad_s == pytest.approx(motor_speed / N, rel=1e-12)
-        assert P.no_load_speed_rad_s == pytest.approx(330 * 2 * math.pi / 60, rel=0.01)
-    outputs = motor.outputs()
-    assert outputs.current_a == pytest.approx((volts - K * motor_speed) / R, rel=1e-6)
-    assert outputs.carrier_torque_n_m == 0.0  # nothing at the carrier: no load, no inertia
 
 
 def test_steady_speed_driving_a_constant_load():
