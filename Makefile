@@ -40,8 +40,10 @@ lint: setup
 	$(WITH_ENV) ruff check . && mypy
 
 # Each run gets its own ROS domain (unless ROS_DOMAIN_ID is set) so that nodes started by tests
-# do not talk to other ROS processes on the machine.
+# do not talk to other ROS processes on the machine. tools/test-system-packages.sh first installs
+# the Debian packages some tests use where it can (root with apt-get), and says so where not.
 test: lint
+	tools/test-system-packages.sh
 	$(WITH_ENV) export ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 100 + 1))} && \
 	  python -m pytest $(or $(TEST_DIRS),test) $(PYTEST_ARGS)
 
