@@ -9,9 +9,18 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 import fishtail_bringup.console
 
 RUN_TIMEOUT_S = 60.0
+RUN = [sys.executable, "-m", "fishtail_bringup.run"]
+
+
+@pytest.fixture(params=["separate processes", "one process"])
+def run(request) -> list[str]:
+    """fishtail-run's command in each layout: a process per node, or all nodes in one."""
+    return RUN + (["--one-process"] if request.param == "one process" else [])
 
 
 def test_console_doctests():
@@ -19,10 +28,10 @@ def test_console_doctests():
     assert result.attempted > 0 and result.failed == 0
 
 
-def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain):
+def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain, run):
     # 12 rad/s gives a beat every 0.52 s, so 6 s is several beats even with slow discovery.
     completed = subprocess.run(
-        [sys.executable, "-m", "fishtail_bringup.run", "--speed", "12", "--duration", "6"],
+        [*run, "--speed", "12", "--duration", "6"],
         env=os.environ.copy(),
         capture_output=True,
         text=True,
@@ -36,9 +45,9 @@ def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain):
     assert "motor commanded to stop" in output
 
 
-def test_sigint_stops_every_node(ros_domain):
+def test_sigint_stops_every_node(ros_domain, run):
     process = subprocess.Popen(
-        [sys.executable, "-m", "fishtail_bringup.run", "--mechanism", "undulatory"],
+        [*run, "--mechanism", "undulatory"],
         env=os.environ.copy(),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -60,11 +69,11 @@ def test_sigint_stops_every_node(ros_domain):
     assert "non-zero status" not in output and "killed" not in output
 
 
-def test_a_subset_of_nodes_on_this_computer(ros_domain, start_node):
+def test_a_subset_of_nodes_on_this_computer(ros_domain, start_node, run):
     """The shore half: kinematics and monitor only, following a driver started elsewhere."""
     driver = start_node("driver", params={"cmd_timeout_sec": 0.5})
     completed = subprocess.run(
-        [sys.executable, "-m", "fishtail_bringup.run", "--nodes", "kinematics,monitor",
+        [*run, "--nodes", "kinematics,monitor",
          "--speed", "12", "--duration", "6"],
         env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
     )  # fmt: skip
@@ -78,13 +87,13 @@ def test_a_subset_of_nodes_on_this_computer(ros_domain, start_node):
     assert driver.returncode is None
 
 
-def test_no_command_leaves_the_motor_to_another_computer(ros_domain, ros):
+def test_no_command_leaves_the_motor_to_another_computer(ros_domain, ros, run):
     """``--nodes driver --no-command`` (the fish half): the driver runs, nobody commands it."""
     from std_msgs.msg import Float64
 
     commands = ros.record(Float64, "motor/cmd_speed", 10)
     process = subprocess.Popen(
-        [sys.executable, "-m", "fishtail_bringup.run", "--nodes", "driver", "--no-command"],
+        [*run, "--nodes", "driver", "--no-command"],
         env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
     try:
@@ -108,10 +117,10 @@ def test_unknown_node_name_is_a_one_line_error():
     assert "unknown node planner: choose from driver, kinematics, monitor" in completed.stderr
 
 
-def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain):
+def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain, run):
     """``--motor dc --load water_swimming``: the motor turns the tail in water; the line says so."""
     completed = subprocess.run(
-        [sys.executable, "-m", "fishtail_bringup.run", "--motor", "dc", "--load",
+        [*run, "--motor", "dc", "--load",
          "water_swimming", "--speed", "12", "--duration", "8"],
         env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
     )  # fmt: skip
@@ -121,3 +130,69 @@ def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain):
     lines = [line for line in output.splitlines() if " N m, " in line]
     assert lines, output
     assert any(" OK: symmetric" in line for line in lines), output
+
+
+def child_processes(pid: int) -> list[tuple[int, str]]:
+    """(pid, command line) of the processes whose parent is ``pid`` (from /proc)."""
+    children = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as stream:
+                # The parent's pid is the second field after the ")" that ends the name.
+                parent = int(stream.read().rpartition(")")[2].split()[1])
+            with open(f"/proc/{entry}/cmdline", "rb") as stream:
+                command = stream.read().replace(b"\0", b" ").decode()
+        except (FileNotFoundError, ProcessLookupError):
+            continue  # ended meanwhile
+        if parent == pid:
+            children.append((int(entry), command))
+    return children
+
+
+def test_one_process_hosts_every_node_with_its_own_parameters(ros_domain, ros):
+    """--one-process: one child process, the nodes in the namespace, the driver's -p its own."""
+    diagnostics = ros.record_diagnostics()
+    process = subprocess.Popen(
+        [*RUN, "--one-process", "--namespace", "fish1", "--driver-param", "publish_rate_hz:=500.0"],
+        env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    try:
+        expected = {("driver", "/fish1"), ("kinematics", "/fish1"), ("monitor", "/fish1")}
+        ros.spin_until(
+            lambda: expected <= set(ros.node.get_node_names_and_namespaces()),
+            RUN_TIMEOUT_S,
+            "the three nodes in /fish1",
+        )
+        children = child_processes(process.pid)
+        assert len(children) == 1, children
+        assert "fishtail_bringup.one_process" in children[0][1]
+        assert child_processes(children[0][0]) == []  # the nodes are not processes of their own
+
+        def driver_rate() -> str | None:
+            for array in diagnostics:
+                for status in array.status:
+                    if status.name.startswith("/fish1/driver"):
+                        return ros.values(status).get("joint_state_expected_rate_hz")
+            return None
+
+        ros.spin_until(driver_rate, RUN_TIMEOUT_S, "the driver's /diagnostics")
+        assert driver_rate() == "500"
+    finally:
+        process.send_signal(signal.SIGINT)
+        output, _ = process.communicate(timeout=RUN_TIMEOUT_S)
+    assert process.returncode == 0, output
+    assert "[suite]" in output and "motor commanded to stop; driver exiting" in output
+
+
+def test_a_node_that_cannot_start_fails_the_one_process(ros_domain):
+    completed = subprocess.run(
+        [*RUN, "--one-process", "--driver-param", "backend:=telepathy", "--duration", "30"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+    )  # fmt: skip
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 1, output
+    assert "driver: error: " in output and "telepathy" in output
+    assert "node process suite exited early with status 2" in output
+    assert "kinematics up" not in output  # the nodes after it were never created

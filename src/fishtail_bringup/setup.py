@@ -29,6 +29,7 @@ setup(
             "fishtail-run = fishtail_bringup.run:main",
             "fishtail-record = fishtail_bringup.record:main",
             "fishtail-view = fishtail_bringup.view:main",
+            "fishtail-one-process = fishtail_bringup.one_process:main",
         ],
     },
 )

@@ -1,19 +1,24 @@
 """The rclpy side that every fishtail node shares.
 
-QoS profiles, parameter declarations, diagnostics, and the runtime that starts a node, spins it
-and stops it on SIGINT or SIGTERM.
+QoS profiles, parameter declarations, diagnostics, publishers that know whether anyone listens,
+and the runtime that starts a process's nodes (one, or several on one executor), spins them and
+stops them on SIGINT or SIGTERM.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import sys
 import threading
-from collections.abc import Callable, Iterable
+import traceback
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
@@ -121,10 +126,24 @@ def spin_until(nodes: Iterable[Node], stop: threading.Event, period_s: float = 0
 
 
 class SuiteNodeBase(Node):
-    """A fishtail node: :func:`run_node` calls :meth:`before_exit` once it stops spinning."""
+    """A fishtail node: :func:`run_nodes` calls :meth:`before_exit` once it stops spinning."""
 
     def before_exit(self) -> None:
         """Leave the hardware safe (the driver stops the motor); nothing by default."""
+
+
+@dataclasses.dataclass(frozen=True)
+class NodeFactory:
+    """How a process creates one of the suite's nodes.
+
+    ``create`` takes :class:`rclpy.node.Node`'s keyword options (``cli_args`` ...); a node that
+    cannot start because of its parameters raises a :class:`ValueError`, one of
+    ``startup_errors`` or rclpy's ParameterException, and ``label`` names it in the error line.
+    """
+
+    create: Callable[..., SuiteNodeBase]
+    label: str
+    startup_errors: tuple[type[Exception], ...] = ()
 
 
 def run_node(
@@ -135,27 +154,87 @@ def run_node(
 ) -> int:
     """A node's ``main``: create it, spin until SIGINT/SIGTERM, exit cleanly; the exit status.
 
-    A node that cannot start because of bad parameters (a :class:`ValueError`, which
-    :class:`~fishtail_common.parameters.ParameterValueError` is, one of ``startup_errors`` or
-    rclpy's ParameterException) prints ``<label>: error: <reason>`` and returns 2, no traceback.
+    ``args`` are the process's command line (its ``--ros-args``); see :func:`run_nodes`.
     """
-    refusals: tuple[type[Exception], ...] = (
-        ValueError,
-        *startup_errors,
-        rclpy.exceptions.ParameterException,
-    )
+    return run_nodes([(NodeFactory(factory, label, startup_errors), {})], args)
+
+
+def run_nodes(
+    nodes: Sequence[tuple[NodeFactory, Mapping[str, Any]]], args: list[str] | None = None
+) -> int:
+    """Host ``nodes`` in this process on one executor until SIGINT/SIGTERM; the exit status.
+
+    Each node is created with its own rclpy Node options (e.g. ``cli_args`` with its
+    ``--params-file`` and ``-p``, which apply to that node alone); ``args`` are the process's
+    global ROS arguments (``rclpy.init``). A node that cannot start because of bad parameters
+    prints ``<label>: error: <reason>`` (no traceback) and the process returns 2, after the nodes
+    already created have left their hardware safe: one node that cannot start stops them all.
+    Once spinning ends every node's :meth:`SuiteNodeBase.before_exit` runs, even if another's
+    raised; a failing one makes the status 1.
+    """
     stop = install_stop_handlers()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    created: list[tuple[NodeFactory, SuiteNodeBase]] = []
+    status = 0
     try:
-        node = factory()
-    except refusals as error:
-        print(f"{label}: error: {error}", file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        spin_until([node], stop)
+        for factory, options in nodes:
+            refusals: tuple[type[Exception], ...] = (
+                ValueError,
+                *factory.startup_errors,
+                rclpy.exceptions.ParameterException,
+            )
+            try:
+                created.append((factory, factory.create(**options)))
+            except refusals as error:
+                print(f"{factory.label}: error: {error}", file=sys.stderr)
+                return 2
+        spin_until([node for _, node in created], stop)
     finally:
-        node.before_exit()
-        node.destroy_node()
+        # In start-up order: the driver, first, stops the motor before the others wind down.
+        for factory, node in created:
+            try:
+                node.before_exit()
+            except Exception:  # the other nodes must still leave safely
+                traceback.print_exc()
+                print(f"{factory.label}: error: failed to exit cleanly", file=sys.stderr)
+                status = 1
+            node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+    return status
+
+
+# ---- publishers
+
+
+class ListenedPublisher:
+    """A publisher that knows whether anyone subscribes, so that nobody's messages go unbuilt.
+
+    :attr:`listened` follows the publisher's matched events (one attribute read per message, no
+    graph query). A transient-local topic is always listened: a late subscriber gets its latest
+    message, so it must be built whether or not anyone subscribes now. A volatile topic's late
+    subscriber gets the next message after it matched, as it would without the check.
+    """
+
+    def __init__(self, node: Node, message_type: type[Any], topic: Topic) -> None:
+        """Create the publisher of ``topic`` on ``node`` with the topic's QoS."""
+        self.always = topic.qos is QosKind.LATCHED
+        self.subscribers = 0
+        self.listened = self.always
+        self.publisher = node.create_publisher(
+            message_type,
+            topic.name,
+            qos_profile(topic),
+            event_callbacks=PublisherEventCallbacks(matched=self._on_matched),
+        )
+
+    def _on_matched(self, info: Any) -> None:
+        self.subscribers = info.current_count
+        self.listened = self.always or self.subscribers > 0
+
+    def publish(self, message: Any) -> None:
+        """Publish ``message`` (whether or not anyone listens)."""
+        self.publisher.publish(message)
+
+    def get_subscription_count(self) -> int:
+        """The graph's count of matched subscriptions (a query; :attr:`listened` is cheap)."""
+        return self.publisher.get_subscription_count()

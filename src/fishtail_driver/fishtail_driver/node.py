@@ -52,7 +52,14 @@ from fishtail_common.interface import (
     Status,
 )
 from fishtail_common.parameters import ParameterValue, ParameterValueError
-from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.ros import (
+    NodeFactory,
+    SuiteNodeBase,
+    declare,
+    diagnostic_array,
+    qos_profile,
+    run_node,
+)
 from fishtail_common.stream_timing import RateCheck
 from fishtail_driver.backends import EncoderSample, StopOutcome
 from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, ParameterValues, make_backend
@@ -357,9 +364,13 @@ class DriverNode(SuiteNodeBase):
         self.shutdown()
 
 
+#: How a process creates this node (its own ``main``, or ``fishtail-run --one-process``).
+FACTORY = NodeFactory(DriverNode, "driver")
+
+
 def main(args: list[str] | None = None) -> int:
     """Entry point of ``ros2 run fishtail_driver driver``."""
-    return run_node(DriverNode, "driver", args=args)
+    return run_node(FACTORY.create, FACTORY.label, FACTORY.startup_errors, args=args)
 
 
 if __name__ == "__main__":

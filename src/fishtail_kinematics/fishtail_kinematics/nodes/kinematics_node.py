@@ -47,7 +47,14 @@ from fishtail_common.interface import (
     Status,
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValueError
-from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.ros import (
+    NodeFactory,
+    SuiteNodeBase,
+    declare,
+    diagnostic_array,
+    qos_profile,
+    run_node,
+)
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import (
@@ -115,9 +122,9 @@ _NAN = float("nan")
 class KinematicsNode(SuiteNodeBase):
     """Thin shell around the engine: messages in, messages out, parameters validated."""
 
-    def __init__(self) -> None:
+    def __init__(self, **node_options: Any) -> None:
         """Declare parameters, build the engine (raises on an infeasible geometry), wire topics."""
-        super().__init__("kinematics")
+        super().__init__("kinematics", **node_options)
         values = declare(self, PARAMETERS)
         self.tail = make_tail(geometry_from_parameters(geometry_parameters_in(values)))
         self.frame_id = str(values[FRAME_ID.name])
@@ -311,9 +318,13 @@ class KinematicsNode(SuiteNodeBase):
         )
 
 
+#: How a process creates this node (its own ``main``, or ``fishtail-run --one-process``).
+FACTORY = NodeFactory(KinematicsNode, "kinematics", (FishtailKinematicsError,))
+
+
 def main() -> int:
     """Entry point of ``ros2 run fishtail_kinematics node``."""
-    return run_node(KinematicsNode, "kinematics", (FishtailKinematicsError,))
+    return run_node(FACTORY.create, FACTORY.label, FACTORY.startup_errors)
 
 
 if __name__ == "__main__":

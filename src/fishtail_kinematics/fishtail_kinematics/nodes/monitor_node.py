@@ -51,7 +51,14 @@ from fishtail_common.interface import (
     Status,
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValue
-from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.ros import (
+    NodeFactory,
+    SuiteNodeBase,
+    declare,
+    diagnostic_array,
+    qos_profile,
+    run_node,
+)
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.input_guard import (
     GUARD_PARAMETERS,
@@ -119,9 +126,9 @@ def _finite(value: float) -> float:
 class MonitorNode(SuiteNodeBase):
     """Thin shell around :class:`BeatTracker` and :func:`judge`."""
 
-    def __init__(self) -> None:
+    def __init__(self, **node_options: Any) -> None:
         """Declare parameters and wire topics."""
-        super().__init__("monitor")
+        super().__init__("monitor", **node_options)
         values = declare(self, PARAMETERS)
         self.tolerances = self._tolerances_from({})
         self.swimming_parameters = self._swimming_parameters_from({})
@@ -399,9 +406,13 @@ class MonitorNode(SuiteNodeBase):
         return bool((now_ns - self.last_progress_ns) * 1e-9 > allowed_s)
 
 
+#: How a process creates this node (its own ``main``, or ``fishtail-run --one-process``).
+FACTORY = NodeFactory(MonitorNode, "monitor", (ValueError,))
+
+
 def main() -> int:
     """Entry point of ``ros2 run fishtail_kinematics monitor``."""
-    return run_node(MonitorNode, "monitor", (ValueError,))
+    return run_node(FACTORY.create, FACTORY.label, FACTORY.startup_errors)
 
 
 if __name__ == "__main__":

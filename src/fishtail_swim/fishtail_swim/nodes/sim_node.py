@@ -35,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
@@ -52,7 +52,14 @@ from fishtail_common.interface import (
     Status,
 )
 from fishtail_common.parameters import ParameterSpec
-from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.ros import (
+    NodeFactory,
+    SuiteNodeBase,
+    declare,
+    diagnostic_array,
+    qos_profile,
+    run_node,
+)
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.input_guard import (
@@ -144,9 +151,9 @@ def figures_message(beat: BeatFigures, stamp_ns: int) -> SwimFigures:
 class SimNode(SuiteNodeBase):
     """Thin shell around :class:`SwimFollower`: samples in, odometry and figures out."""
 
-    def __init__(self) -> None:
+    def __init__(self, **node_options: Any) -> None:
         """Declare parameters, build the tail and the fish (raises on bad values), wire topics."""
-        super().__init__("swim")
+        super().__init__("swim", **node_options)
         values = declare(self, PARAMETERS)
         tail = tail_from_values(values)
         fish = fish_from_values(values)
@@ -310,9 +317,13 @@ class SimNode(SuiteNodeBase):
         )
 
 
+#: How a process creates this node (its own ``main``, or ``fishtail-run --one-process``).
+FACTORY = NodeFactory(SimNode, "swim", (FishtailKinematicsError,))
+
+
 def main() -> int:
     """Entry point of ``ros2 run fishtail_swim sim``."""
-    return run_node(SimNode, "swim", (FishtailKinematicsError,))
+    return run_node(FACTORY.create, FACTORY.label, FACTORY.startup_errors)
 
 
 if __name__ == "__main__":

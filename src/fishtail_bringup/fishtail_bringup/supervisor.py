@@ -1,0 +1,143 @@
+"""How ``fishtail-run`` starts the node processes, forwards their output and stops them.
+
+Each node runs as its own process (``python -m <module> --ros-args ...``), or, with
+``one_process``, the nodes that ``fishtail-one-process`` hosts share one process, each with the
+same ROS arguments as on its own; every process gets its own process group, so that one signal
+reaches all of it.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from fishtail_bringup.one_process import END_OF_ROS_ARGS, HOSTABLE
+from fishtail_common.interface import SUITE_NODES, SWIM_NODE, SuiteNode
+
+SHUTDOWN_WAIT_S = 5.0
+#: The label of the process that hosts the nodes with ``one_process``.
+ONE_PROCESS_LABEL = "suite"
+
+
+class Supervisor:
+    """Starts the node processes, forwards their output, stops them."""
+
+    def __init__(
+        self,
+        config: Path,
+        namespace: str,
+        driver_params: list[str],
+        nodes: tuple[SuiteNode, ...] = SUITE_NODES,
+        fish_config: Path | None = None,
+        driver_reads_fish: bool = False,
+        one_process: bool = False,
+    ) -> None:
+        """Remember how to start the nodes.
+
+        ``fish_config``, the fish's parameter file, goes to the simulator, and to the driver with
+        ``driver_reads_fish`` (its motor turns the tail). ``one_process``: host the nodes in one
+        process (:meth:`commands`).
+        """
+        self.one_process = one_process
+        self.nodes = nodes
+        self.fish_config = fish_config
+        self.driver_reads_fish = driver_reads_fish
+        self.config = config
+        self.namespace = namespace
+        self.driver_params = driver_params
+        self.processes: dict[str, subprocess.Popen] = {}
+        self.print_lock = threading.Lock()
+        self.clear_line = ""
+
+    def command_for(self, node: SuiteNode) -> list[str]:
+        """The command line of one node in its own process."""
+        return [sys.executable, "-m", node.module, *self.ros_arguments_for(node)]
+
+    def one_process_command(self, nodes: tuple[SuiteNode, ...]) -> list[str]:
+        """The command line of one process hosting ``nodes``, each with its own ROS arguments."""
+        command = [sys.executable, "-m", "fishtail_bringup.one_process"]
+        for node in nodes:
+            command += [node.name, *self.ros_arguments_for(node), END_OF_ROS_ARGS]
+        return command
+
+    def ros_arguments_for(self, node: SuiteNode) -> list[str]:
+        """The ``--ros-args ...`` of one node: parameter files, namespace, driver parameters."""
+        command = ["--ros-args", "--params-file", str(self.config)]
+        reads_fish = node == SWIM_NODE or (
+            self.driver_reads_fish and node.package == "fishtail_driver"
+        )
+        if reads_fish and self.fish_config is not None:
+            command += ["--params-file", str(self.fish_config)]
+        if self.namespace:
+            command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
+        if node.package == "fishtail_driver":
+            for item in self.driver_params:
+                command += ["-p", item]
+        return command
+
+    def commands(self) -> dict[str, list[str]]:
+        """The processes to start, by label: a node each, or one for the hostable nodes.
+
+        With ``one_process`` the nodes that ``fishtail-one-process`` hosts share a process
+        (labelled ``suite``); the live view always has its own (it serves its viewers there).
+        """
+        hosted = tuple(node for node in self.nodes if node.name in HOSTABLE)
+        if not (self.one_process and hosted):
+            return {node.name: self.command_for(node) for node in self.nodes}
+        alone = {node.name: self.command_for(node) for node in self.nodes if node not in hosted}
+        return {ONE_PROCESS_LABEL: self.one_process_command(hosted), **alone}
+
+    def start(self) -> None:
+        """Start every node process in its own process group."""
+        for label, command in self.commands().items():
+            process = subprocess.Popen(
+                command,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                start_new_session=True,
+                env=os.environ.copy(),
+                text=True,
+                bufsize=1,
+            )
+            self.processes[label] = process
+            threading.Thread(target=self._forward, args=(label, process), daemon=True).start()
+
+    def _forward(self, name: str, process: subprocess.Popen[str]) -> None:
+        assert process.stdout is not None  # started with stdout=PIPE
+        for line in process.stdout:
+            self.say(f"[{name}] {line.rstrip()}")
+
+    def say(self, text: str) -> None:
+        """Print a line above the live status line."""
+        with self.print_lock:
+            sys.stdout.write(self.clear_line + text + "\n")
+            sys.stdout.flush()
+
+    def dead(self) -> list[tuple[str, int]]:
+        """Node processes that have exited, with their status."""
+        return [(n, p.returncode) for n, p in self.processes.items() if p.poll() is not None]
+
+    def stop(self) -> dict[str, int | None]:
+        """SIGINT every node's group, wait, kill what hangs; return the exit statuses."""
+        for process in self.processes.values():
+            if process.poll() is None:
+                try:
+                    os.killpg(process.pid, signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        deadline = time.monotonic() + SHUTDOWN_WAIT_S
+        statuses: dict[str, int | None] = {}
+        for name, process in self.processes.items():
+            try:
+                statuses[name] = process.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                self.say(f"[{name}] did not stop within {SHUTDOWN_WAIT_S:g} s: killed")
+                os.killpg(process.pid, signal.SIGKILL)
+                statuses[name] = process.wait()
+        return statuses
