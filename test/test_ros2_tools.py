@@ -155,6 +155,32 @@ def test_launch_undulatory_in_a_namespace_and_topic_echo(start_process, ros):
     assert_clean_sigint_exit(launch)
 
 
+def test_launch_one_process_in_a_namespace_with_the_dc_motor(start_process, ros):
+    """``one_process:=true``: one process hosts the nodes, each with its own parameters.
+
+    In the namespace, the driver with its DC motor's gearbox; SIGINT stops them all.
+    """
+    launch = start_process(
+        "launch", launch_argv("one_process:=true", "namespace:=fish1", "motor_model:=dc")
+    )
+    state = ros.record(TailState, "/fish1/tail/state")
+    ros.wait_for_subscribers("/fish1/motor/cmd_speed")
+    ros.command_speed(4.0, topic="/fish1/motor/cmd_speed")
+    ros.wait_for_messages(state, 20, PROCESS_TIMEOUT_S, "tail/state from the one process")
+    names = set(ros.node.get_node_names_and_namespaces())
+    assert {("driver", "/fish1"), ("kinematics", "/fish1"), ("monitor", "/fish1")} <= names
+    gear = run_cli("param", "get", "--no-daemon", "/fish1/driver", "gear_ratio")
+    assert "30.0" in gear.stdout, gear.stdout + gear.stderr
+    assert "gear_ratio" not in run_cli("param", "list", "--no-daemon", "/fish1/kinematics").stdout
+    launch.send_signal(signal.SIGINT)
+    status = launch.wait(LAUNCH_EXIT_TIMEOUT_S)
+    output = launch.stdout() + launch.stderr()
+    assert status == 0, f"ros2 launch exit status {status}:\n{output}"
+    assert "[INFO] [fishtail-one-process-1]: process has finished cleanly" in output, output
+    assert output.count("]: process started with pid") == 1, output
+    assert "motor commanded to stop" in output, output
+
+
 def test_ros2_run_and_param_set_of_an_infeasible_geometry(start_process, ros, config_dir):
     """``ros2 run`` with a params file; ``ros2 param set`` of an infeasible OS shows the reason."""
     config = config_dir / "undulatory.yaml"

@@ -6,6 +6,7 @@
     ros2 launch fishtail_bringup fishtail.launch.py swim:=true   # and the swimming simulator
     ros2 launch fishtail_bringup fishtail.launch.py view:=true   # and the live view (Rerun)
     ros2 launch fishtail_bringup fishtail.launch.py motor_model:=dc motor_load:=water_swimming
+    ros2 launch fishtail_bringup fishtail.launch.py one_process:=true  # the nodes in one process
 
 The launch file does not command the motor: publish the carrier speed yourself, e.g.
     ros2 topic pub -r 10 motor/cmd_speed std_msgs/msg/Float64 "{data: 4.0}"
@@ -17,9 +18,11 @@ from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
 from launch.substitutions import (
+    AndSubstitution,
     EqualsSubstitution,
     IfElseSubstitution,
     LaunchConfiguration,
+    NotSubstitution,
     PathJoinSubstitution,
 )
 from launch_ros.actions import Node
@@ -42,13 +45,35 @@ def dc_motor_encoder(motor_model):
     }
 
 
+def one_process_arguments(nodes, parameters):
+    """``fishtail-one-process``'s command line: each node's name and its own ROS arguments.
+
+    ``parameters`` maps a node to its list of parameter files and ``{name: value}`` dicts, in the
+    order a Node action takes them (later ones win): files become ``--params-file``, dict items
+    ``-p name:=value``, as in the node's own process.
+    """
+    arguments = []
+    for node in nodes:
+        arguments += [node.name, "--ros-args"]
+        for item in parameters[node]:
+            if isinstance(item, dict):
+                for name, value in item.items():
+                    arguments += ["-p", [f"{name}:=", value]]
+            else:
+                arguments += ["--params-file", item]
+        arguments.append("--")
+    return arguments
+
+
 def generate_launch_description():
     """Three nodes in one namespace, geometry from the params file of the chosen mechanism.
 
     ``swim:=true`` adds the swimming simulator: the same geometry, the fish of ``fish_params_file``.
     ``motor_model:=dc`` runs the simulated motor as the DC gear motor (with its gearbox and
     encoder), ``motor_load`` makes it turn the tail of ``params_file`` (and the fish of
-    ``fish_params_file``, which the driver reads too).
+    ``fish_params_file``, which the driver reads too). ``one_process:=true`` starts one process
+    (``fishtail-one-process``) that hosts the nodes, the simulator too with ``swim:=true``, on one
+    executor, each with the same parameters; the view keeps its own process.
     """
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
@@ -69,25 +94,49 @@ def generate_launch_description():
     # The driver declares the fish's parameters only with a motor_load; without one it ignores
     # them, as every node ignores the parameters of a file that it does not declare.
     driver_parameters = [dc_motor_encoder(motor_model), params_file, fish_params_file, driver]
+    parameters = {
+        node: driver_parameters if node.package == "fishtail_driver" else [params_file]
+        for node in SUITE_NODES
+    }
+    parameters[SWIM_NODE] = [params_file, fish_params_file]
+    one_process = LaunchConfiguration("one_process")
+    swim = LaunchConfiguration("swim")
+    separate = NotSubstitution(one_process)
     nodes = [
         Node(
             package=node.package,
             executable=node.executable,
             name=node.name,
             namespace=namespace,
-            parameters=driver_parameters if node.package == "fishtail_driver" else [params_file],
+            parameters=parameters[node],
             output="screen",
+            condition=IfCondition(separate),
         )
         for node in SUITE_NODES
+    ]
+    # One process with or without the simulator: a Node action's arguments cannot be conditional.
+    containers = [
+        Node(
+            package="fishtail_bringup",
+            executable="fishtail-one-process",
+            namespace=namespace,
+            arguments=one_process_arguments(hosted, parameters),
+            output="screen",
+            condition=IfCondition(AndSubstitution(one_process, condition)),
+        )
+        for hosted, condition in (
+            (SUITE_NODES, NotSubstitution(swim)),
+            ((*SUITE_NODES, SWIM_NODE), swim),
+        )
     ]
     simulator = Node(
         package=SWIM_NODE.package,
         executable=SWIM_NODE.executable,
         name=SWIM_NODE.name,
         namespace=namespace,
-        parameters=[params_file, fish_params_file],
+        parameters=parameters[SWIM_NODE],
         output="screen",
-        condition=IfCondition(LaunchConfiguration("swim")),
+        condition=IfCondition(AndSubstitution(swim, separate)),
     )
     view = Node(
         package=VIEW_NODE.package,
@@ -140,7 +189,14 @@ def generate_launch_description():
                 default_value="false",
                 description="true: also start the live view (fishtail-view; prints where to look)",
             ),
+            DeclareLaunchArgument(
+                "one_process",
+                default_value="false",
+                description="true: the nodes in one process on one executor (fishtail-one-process: "
+                "about half the CPU at 1 kHz, less latency; a crash in one node ends them all)",
+            ),
             *nodes,
+            *containers,
             simulator,
             view,
         ]

@@ -60,15 +60,17 @@ def test_declares_the_arguments(description):
     names = [argument.name for argument in description.get_launch_arguments()]
     assert names == [
         "mechanism", "params_file", "namespace", "backend", "motor_model", "motor_load", "swim",
-        "fish_params_file", "view",
+        "fish_params_file", "view", "one_process",
     ]  # fmt: skip
 
 
 def test_launches_the_three_nodes_of_the_packages(description):
+    context = launch.LaunchContext()
+    context.launch_configurations.update(one_process="false", swim="false", view="false")
     nodes = [
         e
         for e in description.entities
-        if isinstance(e, launch_ros_actions.Node) and e.condition is None
+        if isinstance(e, launch_ros_actions.Node) and e.condition.evaluate(context)
     ]
     launched = {(node.node_package, node.node_executable) for node in nodes}
     assert launched == {
@@ -99,7 +101,7 @@ def test_default_params_file_resolves_to_the_installed_config(description, mecha
 @pytest.mark.parametrize(("swim", "launched"), [("false", False), ("true", True)])
 def test_swim_adds_the_simulator_with_the_installed_fish(description, swim, launched):
     context = launch.LaunchContext()
-    context.launch_configurations["swim"] = swim
+    context.launch_configurations.update(swim=swim, one_process="false")
     (simulator,) = [
         e
         for e in description.entities
@@ -126,9 +128,9 @@ def test_view_adds_the_live_view(description, view, launched):
     (node,) = [
         e
         for e in description.entities
-        if isinstance(e, launch_ros_actions.Node) and e.node_package == "fishtail_bringup"
+        if isinstance(e, launch_ros_actions.Node) and e.node_executable == "fishtail-view"
     ]
-    assert node.node_executable == "fishtail-view" in console_scripts("fishtail_bringup")
+    assert "fishtail-view" in console_scripts("fishtail_bringup")
     assert node.condition.evaluate(context) is launched
 
 
@@ -149,3 +151,41 @@ def test_the_dc_motor_gets_its_gearbox_and_encoder(motor_model):
     assert values == expected
     # Typed as the driver declares them (a double and an integer parameter).
     assert [type(values[name]) for name in DC_MOTOR_ENCODER] == [float, int]
+
+
+@pytest.mark.parametrize("swim", ["false", "true"])
+def test_one_process_hosts_the_nodes_with_their_own_parameters(description, swim):
+    """one_process:=true: one fishtail-one-process, each node with the files of its own process."""
+    from fishtail_bringup.one_process import parse
+    from fishtail_common.interface import SUITE_NODES, SWIM_NODE
+
+    context = launch.LaunchContext()
+    context.launch_configurations.update(
+        one_process="true", swim=swim, view="false", mechanism="oscillatory",
+        params_file="tail.yaml", fish_params_file="fish.yaml", motor_model="dc",
+        backend="sim", motor_load="water_held", namespace="",
+    )  # fmt: skip
+    launched = [
+        e
+        for e in description.entities
+        if isinstance(e, launch_ros_actions.Node) and e.condition.evaluate(context)
+    ]
+    (container,) = launched
+    assert container.node_executable == "fishtail-one-process"
+    assert "fishtail-one-process" in console_scripts("fishtail_bringup")
+    arguments = [perform_substitutions(context, item) for item in container.cmd[1:]]
+    nodes, every_node = parse(arguments)
+    assert every_node in ([], ["--ros-args"])  # launch_ros's own, for every node (empty here)
+    own = {node.name: words for node, words in nodes}
+    expected = [*SUITE_NODES, SWIM_NODE] if swim == "true" else list(SUITE_NODES)
+    assert [node for node, _ in nodes] == expected
+    assert own["driver"] == [
+        "--ros-args", "-p", "gear_ratio:=30.0", "-p", "encoder_counts_per_revolution:=64",
+        "--params-file", "tail.yaml", "--params-file", "fish.yaml", "-p", "backend:=sim",
+        "-p", "motor_model:=dc", "-p", "motor_load:=water_held",
+    ]  # fmt: skip
+    assert own["kinematics"] == own["monitor"] == ["--ros-args", "--params-file", "tail.yaml"]
+    if swim == "true":
+        assert own["swim"] == [
+            "--ros-args", "--params-file", "tail.yaml", "--params-file", "fish.yaml",
+        ]  # fmt: skip
