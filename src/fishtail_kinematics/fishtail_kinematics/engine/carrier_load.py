@@ -20,8 +20,8 @@ kinematics of :mod:`~fishtail_kinematics.engine.link_motion`, through ``Tail.lin
 mechanism is named here. Gravity acts along z, normal to the linkage's horizontal plane: it does no
 work on the planar motion and has no term. Friction in the joints and gears is not modelled.
 
-Arrays of carrier angles are solved in blocks of a few thousand samples (each block's work stays in
-the processor's cache), without a Python loop per sample.
+Arrays of carrier angles are solved in the engine's blocks (:data:`BLOCK_SAMPLES` samples, whose
+work stays in the processor's cache), without a Python loop per sample.
 
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
@@ -41,15 +41,11 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.blocks import block_slices
 from fishtail_kinematics.engine.errors import InvalidInputError
 from fishtail_kinematics.engine.geometry import FloatArray, Real
 from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import Tail
-
-#: Carrier angles solved together. A block's temporaries (64 kB arrays) stay in the processor's
-#: cache, which makes the engine and the arithmetic here about twice as fast as on whole arrays of
-#: a million angles; much smaller blocks pay numpy's fixed cost per call instead (about 1 us).
-BLOCK_SAMPLES = 8192
 
 
 class ReducedInertia(NamedTuple):
@@ -104,8 +100,9 @@ class CarrierLoadModel:
             # where its array path's fixed cost is some 100 us.
             yield slice(0, 1), self._block(float(angle[0]))
             return
-        for start in range(0, angle.size, BLOCK_SAMPLES):
-            block = slice(start, start + BLOCK_SAMPLES)
+        # The engine's blocks (blocks.BLOCK_SAMPLES): each block's load is formed while the
+        # engine's results for it are still in the cache.
+        for block in block_slices(angle.size):
             yield block, self._block(angle[block])
 
     def _block(self, angle: Real) -> _Block:

@@ -11,6 +11,7 @@ from typing import cast
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.block_solve import solve_arrays
 from fishtail_kinematics.engine.errors import (
     AssemblyError,
 )
@@ -33,7 +34,6 @@ from fishtail_kinematics.engine.tail_base import (
     Tail,
     assembly_violations,
     check_finite_scalars,
-    zero_dimensional_safe,
 )
 
 
@@ -46,6 +46,7 @@ class OscillatoryTail(Tail):
 
     name = OSCILLATORY
     geometry_type = OscillatoryGeometry
+    state_type = OscillatoryState
     state_fields = OscillatoryState._fields
     joint_names = ("theta1", "theta2", "theta3")
     fin_joint = None
@@ -109,17 +110,27 @@ class OscillatoryTail(Tail):
         return math.atan2(self._OS, slider_position) + math.asin(k)
 
     def solve(
-        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+        self,
+        motor_angle: npt.ArrayLike,
+        motor_velocity: npt.ArrayLike = 0.0,
+        *,
+        out: LinkageState | None = None,
+        workers: int | None = None,
     ) -> OscillatoryState:
         """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
 
-        Floats take the scalar path; anything else is treated as arrays and broadcast together.
+        Floats take the scalar path; anything else is treated as arrays and broadcast together,
+        in blocks, into ``out`` if given, on up to ``workers`` threads (see :meth:`Tail.solve`).
         """
-        if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
-            phi, phi_dot = float(motor_angle), float(motor_velocity)
+        scalars = isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int))
+        if scalars and out is None:
+            phi, phi_dot = float(motor_angle), float(motor_velocity)  # type: ignore[arg-type]
             check_finite_scalars(phi, phi_dot)
             return self._solve_scalar(phi, phi_dot)
-        return zero_dimensional_safe(self._solve_array, motor_angle, motor_velocity)
+        return solve_arrays(
+            self._solve_array, OscillatoryState, motor_angle, motor_velocity,
+            cast(OscillatoryState | None, out), workers,
+        )  # fmt: skip
 
     def _solve_scalar(self, phi: float, phi_dot: float) -> OscillatoryState:
         carrier = phi + self._psi

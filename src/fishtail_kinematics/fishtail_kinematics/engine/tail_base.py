@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Callable
 from typing import TYPE_CHECKING, ClassVar, TypeVar
 
 import numpy as np
@@ -46,32 +45,7 @@ def check_finite_scalars(phi: float, phi_dot: float) -> None:
         raise InvalidInputError(f"carrier angle {phi!r} and speed {phi_dot!r} must be finite")
 
 
-_State = TypeVar("_State", OscillatoryState, UndulatoryState)
 ScalarOrArray = TypeVar("ScalarOrArray", float, FloatArray)
-
-
-def zero_dimensional_safe(
-    solver: Callable[[FloatArray, FloatArray], _State],
-    motor_angle: npt.ArrayLike,
-    motor_velocity: npt.ArrayLike,
-) -> _State:
-    """``solver`` on arrays, refusing non-finite input, and 0-d in gives 0-d arrays out."""
-    # Non-finite input is refused rather than turned into NaN output. The array paths work in
-    # place (out=...), which numpy refuses for 0-d results: solve those as one-element arrays and
-    # hand back 0-d arrays.
-    phi = np.asarray(motor_angle, float)
-    phi_dot = np.asarray(motor_velocity, float)
-    for name, values in (("carrier angle", phi), ("carrier speed", phi_dot)):
-        if not np.isfinite(values).all():
-            bad = np.flatnonzero(~np.isfinite(values.ravel()))
-            raise InvalidInputError(
-                f"{bad.size} non-finite {name} value(s), the first at flat index {bad[0]}: "
-                f"{values.ravel()[bad[0]]!r}"
-            )
-    if phi.ndim or phi_dot.ndim:
-        return solver(phi, phi_dot)
-    state = solver(phi.reshape(1), phi_dot.reshape(1))
-    return type(state)._make(np.asarray(value).reshape(()) for value in state)
 
 
 class Tail(abc.ABC):
@@ -92,6 +66,8 @@ class Tail(abc.ABC):
     fin_joint: ClassVar[str | None]
     #: The moving bodies, named as in :mod:`~fishtail_kinematics.engine.link_inertia`.
     links: ClassVar[tuple[str, ...]]
+    #: The named tuple :meth:`solve` returns.
+    state_type: ClassVar[type[OscillatoryState] | type[UndulatoryState]]
 
     def __init__(self, geometry: Geometry) -> None:
         """Keep ``geometry``; subclasses validate it."""
@@ -113,6 +89,16 @@ class Tail(abc.ABC):
         """The state field of the last link's angle to the body axis: theta3 or the fin joint."""
         return cls.fin_joint or "theta3"
 
+    @classmethod
+    def empty_state(cls, shape: int | tuple[int, ...]) -> LinkageState:
+        """A state of new (uninitialised) float64 arrays of ``shape``: an ``out`` for :meth:`solve`.
+
+        >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
+        >>> OscillatoryTail.empty_state((2, 3)).theta1.shape
+        (2, 3)
+        """
+        return cls.state_type._make(np.empty(shape) for _ in cls.state_type._fields)
+
     @property
     @abc.abstractmethod
     def drive(self) -> OscillatoryTail:
@@ -120,11 +106,21 @@ class Tail(abc.ABC):
 
     @abc.abstractmethod
     def solve(
-        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+        self,
+        motor_angle: npt.ArrayLike,
+        motor_velocity: npt.ArrayLike = 0.0,
+        *,
+        out: LinkageState | None = None,
+        workers: int | None = None,
     ) -> LinkageState:
         """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
 
         Floats take the scalar path; anything else is treated as arrays and broadcast together.
+        Large batches are evaluated in cache-sized blocks on up to ``workers`` threads (None:
+        one per core this process may use; 1: the calling thread only), with the same results
+        to the last bit. ``out``, a state of this tail's type holding float64 arrays of the
+        broadcast shape, receives the results and is returned (see
+        :mod:`~fishtail_kinematics.engine.block_solve`).
         """
 
     @abc.abstractmethod

@@ -11,6 +11,7 @@ from typing import cast
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.block_solve import solve_arrays
 from fishtail_kinematics.engine.errors import (
     AssemblyError,
     InvalidLengthError,
@@ -38,11 +39,12 @@ from fishtail_kinematics.engine.oscillatory_tail import OscillatoryTail
 from fishtail_kinematics.engine.tail_base import (
     ScalarOrArray,
     Tail,
-    zero_dimensional_safe,
 )
 
-# Loop-closure tolerance of the undulatory solver: how far W may sit off its circle about V.
-_CLOSURE_TOLERANCE_M = 1e-12
+# Loop-closure tolerance of the undulatory solver: how far W may sit off its circle about V. Each
+# sample stops at it on its own (so a sample's result does not depend on its batch); the tip T
+# lies beyond W, VT/VW times as far off, and rounding sits some 1000x below at the report's sizes.
+_CLOSURE_TOLERANCE_M = 1e-13
 # Samples of the continuation sweep that validates mechanism 2 and seeds its Newton solver.
 _CONTINUATION_SAMPLES = 2001
 # A degree-10 seed is within ~1e-12 m of the root on the report's geometry, so one Newton step
@@ -67,6 +69,7 @@ class UndulatoryTail(Tail):
 
     name = UNDULATORY
     geometry_type = UndulatoryGeometry
+    state_type = UndulatoryState
     state_fields = UndulatoryState._fields
     joint_names = ("theta1", "theta2", "theta3", "theta4", "theta5")
     fin_joint = "theta5"
@@ -177,12 +180,25 @@ class UndulatoryTail(Tail):
             )
 
     def solve(
-        self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike = 0.0
+        self,
+        motor_angle: npt.ArrayLike,
+        motor_velocity: npt.ArrayLike = 0.0,
+        *,
+        out: LinkageState | None = None,
+        workers: int | None = None,
     ) -> UndulatoryState:
-        """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s]."""
-        if isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int)):
-            return self._solve_scalar(self._drive.solve(float(motor_angle), float(motor_velocity)))
-        return zero_dimensional_safe(self._solve_array_path, motor_angle, motor_velocity)
+        """Pose and rates for carrier angle phi [rad] and speed phi_dot [rad/s].
+
+        Floats take the scalar path; anything else is treated as arrays and broadcast together,
+        in blocks, into ``out`` if given, on up to ``workers`` threads (see :meth:`Tail.solve`).
+        """
+        scalars = isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int))
+        if scalars and out is None:
+            return self._solve_scalar(self._drive.solve(float(motor_angle), float(motor_velocity)))  # type: ignore[arg-type]
+        return solve_arrays(
+            self._solve_array_path, UndulatoryState, motor_angle, motor_velocity,
+            cast(UndulatoryState | None, out), workers,
+        )  # fmt: skip
 
     def link_points(self, state: LinkageState) -> UndulatoryPoints:
         """Every joint of ``state`` (an undulatory state) in the frame at O."""
@@ -241,14 +257,19 @@ class UndulatoryTail(Tail):
         theta3 = d.theta3
         a = cast(FloatArray, np.polyval(self._seed, theta3))
         residual, slope = self._residual_and_slope(a, cos3, sin3)
+        step = residual / slope
         for _ in range(_MAX_NEWTON_STEPS):
-            a -= residual / slope
+            a -= step
             residual, slope = self._residual_and_slope(a, cos3, sin3)
             # Written so that a NaN residual counts as not converged.
-            worst = float(np.max(np.abs(residual), initial=0.0))
-            if worst < self._residual_tolerance:
+            open_loop = ~(np.abs(residual) < self._residual_tolerance)
+            if not open_loop.any():
                 break
+            # Only the samples still open take another step (a - 0 is a), so that each sample's
+            # result is the same whatever batch or block it is solved in.
+            step = np.divide(residual, slope, out=np.zeros_like(residual), where=open_loop)
         else:
+            worst = float(np.max(np.abs(residual), initial=0.0))
             raise SolverError(f"mechanism 2 loop residual up to {worst:.3e} m^2 in this batch")
         dx = a + self._SU * cos3
         dy = self._SU * sin3

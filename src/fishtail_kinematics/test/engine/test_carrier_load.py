@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
+from fishtail_kinematics.engine.blocks import BLOCK_SAMPLES
 from fishtail_kinematics.engine.carrier_load import (
-    BLOCK_SAMPLES,
     CarrierLoadModel,
     carrier_load,
 )
