@@ -2,20 +2,25 @@
 
 Prints figures only; targets (one core): mechanism 1 >= 10 M samples/s with all outputs,
 mechanism 2 >= 2 M samples/s, >= 500x a per-sample generic root-finder solve, scalar <= 5 us.
+Then the engine's floor, with verdicts: one core against the transcendental calls it must make
+(<= 1.3x their cost) and against a plain numpy transcription of docs/kinematics.md, two cores
+against one (>= 1.7x), and the peak memory of 10^7 angles in blocks.
 Run with `make bench`.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import tracemalloc
 
 import numpy as np
 from scipy.optimize import fsolve
 
+from fishtail_kinematics.engine.blocks import BLOCK_SAMPLES, block_slices
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
-from measure import best_of, pin_to_one_core
+from measure import best_of, pin_to_one_core, verdict
 
 BATCH = 1_000_000
 SPEED_RAD_S = 4.0
@@ -65,8 +70,114 @@ def generic_solve_undulatory(g: UndulatoryGeometry, theta3: float, guess: np.nda
     return _fsolve(loop, guess)
 
 
+def plain_numpy_oscillatory(tail: OscillatoryTail, phi: np.ndarray, phi_dot: float) -> tuple:
+    """Mechanism 1 as docs/kinematics.md writes it, one numpy expression per line (no tricks)."""
+    g = tail.geometry
+    r, pr, rs, os_, st = (
+        g.ring_radius_m,
+        g.crank_link_m,
+        g.rocker_link_m,
+        g.pivot_offset_m,
+        g.tail_link_m,
+    )
+    op = r * np.cos(phi + g.phase_rad)
+    op_dot = -r * phi_dot * np.sin(phi + g.phase_rad)
+    k = (op**2 + rs**2 + os_**2 - pr**2) / (2.0 * rs * np.sqrt(op**2 + os_**2))
+    theta2 = np.arctan2(os_, op) + np.arcsin(k)
+    theta1 = np.arctan2(op - rs * np.sin(theta2), os_ + rs * np.cos(theta2))
+    sin_sum = np.sin(theta1 + theta2)
+    theta2_dot = op_dot * np.sin(theta1) / (rs * sin_sum)
+    theta1_dot = op_dot * np.sin(theta2) / (pr * sin_sum)
+    theta3 = theta2 - tail.theta2_mid
+    tip_x, tip_y = os_ + st * np.cos(theta3), st * np.sin(theta3)
+    tip_x_dot, tip_y_dot = -st * np.sin(theta3) * theta2_dot, st * np.cos(theta3) * theta2_dot
+    return (op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, tip_x, tip_y,
+            tip_x_dot, tip_y_dot)  # fmt: skip
+
+
+def transcendental_floor(phi: np.ndarray) -> float:
+    """Seconds for the calls mechanism 1's array path must make, at their cheapest.
+
+    cos and sin of the carrier angle, sqrt(OP^2 + OS^2), atan2(OS, OP), asin K, sqrt(1 - K^2)
+    and atan2 for theta1: in the engine's blocks, into buffers that stay in the cache.
+    """
+    a, b, c = np.empty(BLOCK_SAMPLES), np.empty(BLOCK_SAMPLES), np.empty(BLOCK_SAMPLES)
+    ratio = np.linspace(-0.9, 0.9, BLOCK_SAMPLES)  # asin's argument stays inside [-1, 1]
+    positive = np.linspace(0.01, 1.0, BLOCK_SAMPLES)  # sqrt's argument stays >= 0
+
+    def calls() -> None:
+        for block in block_slices(phi.size):
+            x, n = phi[block], block.stop - block.start
+            np.cos(x, out=a[:n])
+            np.sin(x, out=b[:n])
+            np.sqrt(positive[:n], out=c[:n])
+            np.arctan2(0.2, a[:n], out=c[:n])
+            np.arcsin(ratio[:n], out=c[:n])
+            np.sqrt(positive[:n], out=c[:n])
+            np.arctan2(b[:n], a[:n], out=c[:n])
+
+    np.abs(phi, out=np.empty_like(phi))  # the angles in the cache hierarchy like the engine's
+    return best_of(calls, 7)
+
+
+def floor_and_cores(all_cores: set[int]) -> None:
+    """Mechanism 1 at 10^6 angles against its floor, on one and two cores; peak at 10^7."""
+    tail = OscillatoryTail(OscillatoryGeometry())
+    phi = np.linspace(0.0, 40.0 * math.pi, BATCH)
+    fresh_s = best_of(lambda: tail.solve(phi, SPEED_RAD_S, workers=1), 7)
+    out = tail.empty_state(BATCH)
+    steady_s = best_of(lambda: tail.solve(phi, SPEED_RAD_S, out=out, workers=1), 7)
+    floor_s = transcendental_floor(phi)
+    plain_s = best_of(lambda: plain_numpy_oscillatory(tail, phi, SPEED_RAD_S), 7)
+    plain = plain_numpy_oscillatory(tail, phi, SPEED_RAD_S)
+    compared = ("slider_position", "slider_velocity", "theta1", "theta1_dot", "theta2",
+                "theta2_dot", "theta3", "tip_x", "tip_y", "tip_x_dot", "tip_y_dot")  # fmt: skip
+    engine = [getattr(out, name) for name in compared]
+    agreement = max(float(np.abs(x - y).max()) for x, y in zip(plain, engine, strict=True))
+    print(
+        f"mechanism 1, one core, {BATCH:,} angles: {BATCH / fresh_s / 1e6:.2f} M/s on fresh "
+        f"memory, {BATCH / steady_s / 1e6:.2f} M/s steady (out= reused); transcendental floor "
+        f"{BATCH / floor_s / 1e6:.2f} M/s ({floor_s / BATCH * 1e9:.1f} ns/angle); steady / floor "
+        f"{steady_s / floor_s:.2f}x (target <= 1.3x: {verdict(steady_s <= 1.3 * floor_s)}), "
+        f"fresh / floor {fresh_s / floor_s:.2f}x"
+    )
+    print(
+        f"mechanism 1, plain numpy transcription of docs/kinematics.md: "
+        f"{BATCH / plain_s / 1e6:.2f} M/s; the engine is {plain_s / steady_s:.2f}x it steady, "
+        f"{plain_s / fresh_s:.2f}x on fresh memory (largest difference {agreement:.1e})"
+    )
+    try:
+        os.sched_setaffinity(0, all_cores)
+    except (AttributeError, OSError):
+        pass
+    cores = len(os.sched_getaffinity(0))
+    two_s = best_of(lambda: tail.solve(phi, SPEED_RAD_S, out=out, workers=2), 7)
+    two_fresh_s = best_of(lambda: tail.solve(phi, SPEED_RAD_S, workers=2), 7)
+    print(
+        f"mechanism 1, two threads ({cores} cores allowed): {BATCH / two_s / 1e6:.2f} M/s steady, "
+        f"{steady_s / two_s:.2f}x one core (target >= 1.7x: "
+        f"{verdict(steady_s / two_s >= 1.7)}); {BATCH / two_fresh_s / 1e6:.2f} M/s on fresh "
+        f"memory, {fresh_s / two_fresh_s:.2f}x one core"
+    )
+    pin_to_one_core()
+    many = np.linspace(0.0, 40.0 * math.pi, 10 * BATCH)
+    for name, big in (("mechanism 1", tail), ("mechanism 2", UndulatoryTail(UndulatoryGeometry()))):
+        tracemalloc.start()
+        state = big.solve(many, SPEED_RAD_S)
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        arrays = len({value.__array_interface__["data"][0] for value in state[2:]})
+        del state
+        print(
+            f"{name}: peak {peak / 2**30:.2f} GiB for {many.size:,} angles in blocks "
+            f"({peak / many.size:.0f} B/angle; its {arrays} computed arrays hold "
+            f"{8 * arrays} B/angle)"
+        )
+
+
 def main() -> None:
     """Print the figures."""
+    all_cores = os.sched_getaffinity(0)
     pinned = pin_to_one_core()
     print(f"kinematics benchmark ({pinned}), batch of {BATCH:,} carrier angles")
     phi = np.linspace(0.0, 40.0 * math.pi, BATCH)
@@ -93,6 +204,7 @@ def main() -> None:
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         calls = 50_000
+
         def per_message(tail=tail, calls=calls):
             # As the node uses it: one state per message, dropped after publishing.
             for k in range(calls):
@@ -131,6 +243,7 @@ def main() -> None:
             f"{NOT_CONVERGED['count']} of {NOT_CONVERGED['total']} solves not converged); "
             f"ratio {generic_s * rate:,.0f}x"
         )
+    floor_and_cores(all_cores)
 
 
 if __name__ == "__main__":
