@@ -598,7 +598,7 @@ def report_floor(layout: str, floor: dict) -> None:
             rounds = "(rounds " + ", ".join(f"{r:.2f}x" for r in row["rounds"]) + ")"
         print(
             f"  {figure:<22} {row[SUITE]:7.3f} {unit:<3}{row[RELAY]:7.3f} {unit:<3}"
-            f"{row['ratio']:8.2f}x  {target} {rounds}".rstrip()
+            f"{row['ratio']:8.3f}x  {target} {rounds}".rstrip()
         )
     lost = floor["lost"]
     print(
