@@ -53,6 +53,7 @@ from fishtail_common.interface import (
 )
 from fishtail_common.parameters import ParameterValue, ParameterValueError
 from fishtail_common.ros import (
+    ListenedPublisher,
     NodeFactory,
     SuiteNodeBase,
     declare,
@@ -130,9 +131,7 @@ class DriverNode(SuiteNodeBase):
 
         self.state_message = JointState()
         self.state_message.name = [str(values["joint_name"])]
-        self.state_publisher = self.create_publisher(
-            JointState, MOTOR_JOINT_STATE.name, qos_profile(MOTOR_JOINT_STATE)
-        )
+        self.state_publisher = ListenedPublisher(self, JointState, MOTOR_JOINT_STATE)
         self.diagnostics_publisher = self.create_publisher(
             DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
         )
@@ -286,13 +285,15 @@ class DriverNode(SuiteNodeBase):
         stamp = self._sample_stamp(sample)
         if stamp is None:
             return  # counted: dropped_backward_stamps
+        self.rate_check.record(sample.monotonic_s)
+        if not self.state_publisher.listened:
+            return  # nobody to build it for (the rate above is the backend's, all the same)
         message = self.state_message
         message.header.stamp = stamp
         message.position = [sample.angle_rad]
         message.velocity = [sample.velocity_rad_s]
         message.effort = [] if sample.effort_n_m is None else [sample.effort_n_m]
         self.state_publisher.publish(message)
-        self.rate_check.record(sample.monotonic_s)
 
     def expected_rate_hz(self) -> float:
         """The motor/joint_state rate the parameters promise (at most the backend's sample rate)."""

@@ -48,6 +48,7 @@ from fishtail_common.interface import (
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValueError
 from fishtail_common.ros import (
+    ListenedPublisher,
     NodeFactory,
     SuiteNodeBase,
     declare,
@@ -149,15 +150,10 @@ class KinematicsNode(SuiteNodeBase):
         self._joint_rates: Callable[[LinkageState], Any] = operator.attrgetter("theta1_dot")
         self._copied_fields: tuple[str, ...] = ()
         self._configure_messages()
-        self.joint_publisher = self.create_publisher(
-            JointState, TAIL_JOINT_STATES.name, qos_profile(TAIL_JOINT_STATES)
-        )
-        self.tip_publisher = self.create_publisher(
-            PointStamped, TAIL_TIP.name, qos_profile(TAIL_TIP)
-        )
-        self.state_publisher = self.create_publisher(
-            TailState, TAIL_STATE.name, qos_profile(TAIL_STATE)
-        )
+        # A message that nobody subscribes to is not built (ListenedPublisher).
+        self.joint_publisher = ListenedPublisher(self, JointState, TAIL_JOINT_STATES)
+        self.tip_publisher = ListenedPublisher(self, PointStamped, TAIL_TIP)
+        self.state_publisher = ListenedPublisher(self, TailState, TAIL_STATE)
         self.diagnostics_publisher = self.create_publisher(
             DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
         )
@@ -273,19 +269,23 @@ class KinematicsNode(SuiteNodeBase):
         self.markers.latest = (state, stamp)
 
     def publish_state(self, s: LinkageState, stamp: Any) -> None:
-        """Fill and publish the three tail messages from an engine state."""
-        joints = self.joint_states
-        joints.header.stamp = stamp
-        joints.position = self._joint_positions(s)
-        joints.velocity = self._joint_rates(s)
-        self.joint_publisher.publish(joints)
+        """Fill and publish the three tail messages from an engine state, those anyone wants."""
+        if self.joint_publisher.listened:
+            joints = self.joint_states
+            joints.header.stamp = stamp
+            joints.position = self._joint_positions(s)
+            joints.velocity = self._joint_rates(s)
+            self.joint_publisher.publish(joints)
 
-        tip = self.tip
-        tip.header.stamp = stamp
-        tip.point.x = s.tip_x
-        tip.point.y = s.tip_y
-        self.tip_publisher.publish(tip)
+        if self.tip_publisher.listened:
+            tip = self.tip
+            tip.header.stamp = stamp
+            tip.point.x = s.tip_x
+            tip.point.y = s.tip_y
+            self.tip_publisher.publish(tip)
 
+        if not self.state_publisher.listened:
+            return
         state = self.state
         state.header.stamp = stamp
         for name in self._copied_fields:

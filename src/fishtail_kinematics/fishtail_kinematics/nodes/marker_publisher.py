@@ -25,7 +25,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from fishtail_common.interface import TAIL_MARKERS
 from fishtail_common.parameters import ParameterSpec
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import ListenedPublisher
 from fishtail_kinematics.engine.geometry import LinkageState
 from fishtail_kinematics.engine.markers import (
     LINE_LIST,
@@ -98,9 +98,7 @@ class TailMarkerPublisher:
         self._node = node
         self.frame_id = frame_id
         self.tail = tail
-        self.publisher = node.create_publisher(
-            MarkerArray, TAIL_MARKERS.name, qos_profile(TAIL_MARKERS)
-        )
+        self.publisher = ListenedPublisher(node, MarkerArray, TAIL_MARKERS)
         #: (engine state, header stamp) of the newest input; set by the node per message.
         self.latest: tuple[LinkageState, Time] | None = None
         self.trail: deque[tuple[float, float]] = deque(maxlen=trail_length)
@@ -141,7 +139,7 @@ class TailMarkerPublisher:
         if state is not self._trail_source:
             self._trail_source = state
             self.trail.append((float(state.tip_x), float(state.tip_y)))
-        if self.publisher.get_subscription_count() == 0:
+        if not self.publisher.listened:
             return
         self.publisher.publish(self.build(state, stamp))
 

@@ -28,7 +28,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from fishtail_common.interface import FISH_MARKERS, WORLD_FRAME
 from fishtail_common.parameters import ParameterSpec
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import ListenedPublisher
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_swim.dynamics.fish import FloatArray
 from fishtail_swim.dynamics.model import PSI, X, Y
@@ -85,9 +85,7 @@ class FishMarkerPublisher:
         self.tail_origin_offset_m = tail_origin_offset_m
         #: The outline in the body frame, (outline.OUTLINE_POINTS, 2).
         self.outline = body_outline(body_length_m, body_diameter_m)
-        self.publisher = node.create_publisher(
-            MarkerArray, FISH_MARKERS.name, qos_profile(FISH_MARKERS)
-        )
+        self.publisher = ListenedPublisher(node, MarkerArray, FISH_MARKERS)
         #: (state (1, 6), carrier angle, header stamp) of the newest sample; set per message.
         self.latest: tuple[FloatArray, float, Time] | None = None
         self.path: deque[tuple[float, float]] = deque(maxlen=path_length)
@@ -110,7 +108,7 @@ class FishMarkerPublisher:
         if state is not self._path_source:
             self._path_source = state
             self.path.append((float(state[0, X]), float(state[0, Y])))
-        if self.publisher.get_subscription_count() == 0:
+        if not self.publisher.listened:
             return
         self.publisher.publish(self.build(state, angle, stamp))
 

@@ -23,7 +23,7 @@ from rclpy.node import Node
 
 from fishtail_common.interface import TF, TF_STATIC
 from fishtail_common.parameters import ParameterSpec
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import ListenedPublisher, qos_profile
 from fishtail_swim.frames import FrameTransform, body_in_world, tail_in_body
 
 if TYPE_CHECKING:
@@ -65,7 +65,7 @@ class FishTfBroadcaster:
     def __init__(self, node: Node, message_type: type[Any], tail_origin_offset_m: float) -> None:
         """Create both publishers and send the static transform."""
         self.published = 0
-        self.publisher = node.create_publisher(message_type, TF.name, qos_profile(TF))
+        self.publisher = ListenedPublisher(node, message_type, TF)
         self.static_publisher = node.create_publisher(
             message_type, TF_STATIC.name, qos_profile(TF_STATIC)
         )

@@ -53,6 +53,7 @@ from fishtail_common.interface import (
 )
 from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import (
+    ListenedPublisher,
     NodeFactory,
     SuiteNodeBase,
     declare,
@@ -179,9 +180,7 @@ class SimNode(SuiteNodeBase):
         self.odom = Odometry()
         self.odom.header.frame_id = WORLD_FRAME
         self.odom.child_frame_id = BODY_FRAME
-        self.odom_publisher = self.create_publisher(
-            Odometry, FISH_ODOM.name, qos_profile(FISH_ODOM)
-        )
+        self.odom_publisher = ListenedPublisher(self, Odometry, FISH_ODOM)
         self.figures_publisher = self.create_publisher(
             SwimFigures, FISH_SWIMMING.name, qos_profile(FISH_SWIMMING)
         )
@@ -269,7 +268,13 @@ class SimNode(SuiteNodeBase):
                 self.figures_publisher.publish(figures_message(beat, end_ns))
 
     def publish_odometry(self, stamp: Time) -> None:
-        """Fill and publish fish/odom from the follower's state, and its pose on /tf."""
+        """Fill and publish fish/odom from the follower's state, and its pose on /tf.
+
+        Neither is built when nobody subscribes to it (:class:`ListenedPublisher`).
+        """
+        tf = self.tf if self.tf is not None and self.tf.publisher.listened else None
+        if not (self.odom_publisher.listened or tf is not None):
+            return
         row = self.follower.state[0]
         odom = self.odom
         odom.header.stamp = stamp
@@ -281,9 +286,10 @@ class SimNode(SuiteNodeBase):
         twist.linear.x = float(row[SURGE])
         twist.linear.y = float(row[SWAY])
         twist.angular.z = float(row[YAW_RATE])
-        self.odom_publisher.publish(odom)
-        if self.tf is not None:
-            self.tf.publish(stamp, pose)
+        if self.odom_publisher.listened:
+            self.odom_publisher.publish(odom)
+        if tf is not None:
+            tf.publish(stamp, pose)
 
     def _on_diagnostics(self) -> None:
         now_ns = self.get_clock().now().nanoseconds
