@@ -49,7 +49,14 @@ from fishtail_common.interface import (
     Status,
 )
 from fishtail_common.parameters import ParameterSpec
-from fishtail_common.ros import SuiteNodeBase, declare, diagnostic_array, qos_profile, run_node
+from fishtail_common.ros import (
+    ListenedPublisher,
+    SuiteNodeBase,
+    declare,
+    diagnostic_array,
+    qos_profile,
+    run_node,
+)
 from fishtail_driver.parameters import SPECS as DRIVER_SPECS
 from fishtail_kinematics.nodes.marker_publisher import MARKERS_RATE
 from fishtail_msgs.msg import SwimFigures, SymmetryReport, TailState
@@ -100,9 +107,7 @@ class DriverRelay(SuiteNodeBase):
         self.angle_rad = 0.0
         self.state_message = JointState()
         self.state_message.name = [str(values["joint_name"])]
-        self.state_publisher = self.create_publisher(
-            JointState, MOTOR_JOINT_STATE.name, qos_profile(MOTOR_JOINT_STATE)
-        )
+        self.state_publisher = ListenedPublisher(self, JointState, MOTOR_JOINT_STATE)
         self.diagnostics_publisher = self.create_publisher(
             DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
         )
@@ -131,6 +136,8 @@ class DriverRelay(SuiteNodeBase):
     def _on_publish_tick(self) -> None:
         # The angle advances so that the monitor relay sees revolutions, as the monitor sees beats.
         self.angle_rad += self.speed_rad_s * self.period_s
+        if not self.state_publisher.listened:  # as the suite's publishers: nothing for nobody
+            return
         message = self.state_message
         message.header.stamp = self.get_clock().now().to_msg()
         message.position = [self.angle_rad]
@@ -160,18 +167,11 @@ class KinematicsRelay(SuiteNodeBase):
         self.state.header.frame_id = TAIL_FRAME
         self.markers = MarkerArray(markers=[constant_marker(kind, points)
                                             for kind, points in MARKER_LAYOUT])  # fmt: skip
-        self.joint_publisher = self.create_publisher(
-            JointState, TAIL_JOINT_STATES.name, qos_profile(TAIL_JOINT_STATES)
-        )
-        self.tip_publisher = self.create_publisher(
-            PointStamped, TAIL_TIP.name, qos_profile(TAIL_TIP)
-        )
-        self.state_publisher = self.create_publisher(
-            TailState, TAIL_STATE.name, qos_profile(TAIL_STATE)
-        )
-        self.marker_publisher = self.create_publisher(
-            MarkerArray, TAIL_MARKERS.name, qos_profile(TAIL_MARKERS)
-        )
+        # As the suite's kinematics node: each message is built only while someone listens.
+        self.joint_publisher = ListenedPublisher(self, JointState, TAIL_JOINT_STATES)
+        self.tip_publisher = ListenedPublisher(self, PointStamped, TAIL_TIP)
+        self.state_publisher = ListenedPublisher(self, TailState, TAIL_STATE)
+        self.marker_publisher = ListenedPublisher(self, MarkerArray, TAIL_MARKERS)
         self.diagnostics_publisher = self.create_publisher(
             DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
         )
@@ -187,23 +187,26 @@ class KinematicsRelay(SuiteNodeBase):
         self.received += 1
         self.last_input_ns = self.get_clock().now().nanoseconds
         stamp = message.header.stamp
-        joints = self.joint_states
-        joints.header.stamp = stamp
-        joints.position = self.joint_values
-        joints.velocity = self.joint_values
-        self.joint_publisher.publish(joints)
-        tip = self.tip
-        tip.header.stamp = stamp
-        self.tip_publisher.publish(tip)
-        state = self.state
-        state.header.stamp = stamp
-        state.motor_angle = message.position[0]
-        state.motor_velocity = message.velocity[0]
-        self.state_publisher.publish(state)
+        if self.joint_publisher.listened:
+            joints = self.joint_states
+            joints.header.stamp = stamp
+            joints.position = self.joint_values
+            joints.velocity = self.joint_values
+            self.joint_publisher.publish(joints)
+        if self.tip_publisher.listened:
+            tip = self.tip
+            tip.header.stamp = stamp
+            self.tip_publisher.publish(tip)
+        if self.state_publisher.listened:
+            state = self.state
+            state.header.stamp = stamp
+            state.motor_angle = message.position[0]
+            state.motor_velocity = message.velocity[0]
+            self.state_publisher.publish(state)
 
     def _on_markers_tick(self) -> None:
         # Like the kinematics node: nothing is sent while nobody subscribes.
-        if self.marker_publisher.get_subscription_count() == 0:
+        if not self.marker_publisher.listened:
             return
         stamp = self.get_clock().now().to_msg()
         for marker in self.markers.markers:
