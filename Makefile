@@ -22,7 +22,7 @@ RUN_CMD ?= fishtail-kinematics design --config $(CONFIG) && \
 TEST_DIRS := $(wildcard src/*/test) $(wildcard test)
 PYTEST_ARGS ?=
 
-.PHONY: setup build run test lint bench clean distclean
+.PHONY: setup build run test lint bench firmware clean distclean
 
 setup:
 	tools/bootstrap.sh
@@ -57,6 +57,13 @@ bench: setup
 	  mkdir -p bench/out && rc=0 && \
 	  for f in "$${files[@]}"; do echo "== $$f"; python "$$f" || { rc=$$?; echo "FAILED: $$f" >&2; }; done; \
 	  exit $$rc
+
+# The real motor-board firmware (ROSArduinoBridge for an Arduino Nano) and its simulator on
+# libsimavr, into build/firmware (firmware/build.sh; docs/serial.md). FIRMWARE_SOURCE: a sketch
+# folder or .tar.gz of your own (default: the pinned joshnewans fork in ../shared/upstream).
+FIRMWARE_SOURCE ?=
+firmware:
+	firmware/build.sh $(FIRMWARE_SOURCE)
 
 clean:
 	rm -rf build install log bench/out .pytest_cache .ruff_cache .hypothesis

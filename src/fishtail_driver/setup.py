@@ -23,6 +23,7 @@ setup(
         "console_scripts": [
             "driver = fishtail_driver.node:main",
             "fishtail-fake-board = fishtail_driver.fake_board:main",
+            "fishtail-avr-board = fishtail_driver.avr_board:main",
         ],
     },
 )
