@@ -169,9 +169,16 @@ def test_launch_one_process_in_a_namespace_with_the_dc_motor(start_process, ros)
     ros.wait_for_messages(state, 20, PROCESS_TIMEOUT_S, "tail/state from the one process")
     names = set(ros.node.get_node_names_and_namespaces())
     assert {("driver", "/fish1"), ("kinematics", "/fish1"), ("monitor", "/fish1")} <= names
-    gear = run_cli("param", "get", "--no-daemon", "/fish1/driver", "gear_ratio")
+    # --timeout: without a daemon the CLI must discover the node first.
+    gear = run_cli(
+        "param", "get", "--no-daemon", "--timeout", str(CLI_TIMEOUT_S), "/fish1/driver",
+        "gear_ratio",
+    )  # fmt: skip
     assert "30.0" in gear.stdout, gear.stdout + gear.stderr
-    assert "gear_ratio" not in run_cli("param", "list", "--no-daemon", "/fish1/kinematics").stdout
+    listed = run_cli(
+        "param", "list", "--no-daemon", "--spin-time", "5", "/fish1/kinematics"
+    )
+    assert "mechanism" in listed.stdout and "gear_ratio" not in listed.stdout, listed.stderr
     launch.send_signal(signal.SIGINT)
     status = launch.wait(LAUNCH_EXIT_TIMEOUT_S)
     output = launch.stdout() + launch.stderr()
