@@ -91,8 +91,10 @@ ROUNDS = 2
 #: Window of the one-process runs without the probe, which give only a CPU figure.
 CPU_WINDOW_S = 5.0
 
+# CPU has no absolute target: a share of a core measures the machine as much as the suite; the
+# suite's CPU is judged as a ratio to the relay's (FLOOR_TARGETS).
 TARGETS = {
-    "one process": {"lost_pct": 0.0, "p99_ms": 1.0, "cpu_pct": 30.0},
+    "one process": {"lost_pct": 0.0, "p99_ms": 1.0},
     "separate processes": {"lost_pct": 0.5, "p99_ms": 5.0},
 }
 #: The suite's CPU and latency at most this multiple of the relay's (its floor), by layout.
@@ -464,12 +466,8 @@ def report(name: str, result: dict) -> None:
         label = {"process": "whole process", "without the probe": "w/o probe (own run)"}.get(
             process, process
         )
-        line = f"  CPU {label:<22} {cpu:5.1f} % of a core"
-        if "cpu_pct" in target:
-            limit = target["cpu_pct"]
-            line += f"      target suite <= {limit:g} %: {_mark(cpu, limit)}"
-        print(line)
-    if "cpu_pct" not in target:
+        print(f"  CPU {label:<22} {cpu:5.1f} % of a core")
+    if "process" not in result["cpu_pct"]:
         suite = sum(v for k, v in result["cpu_pct"].items() if not k.startswith("probe"))
         print(f"  CPU {'the three nodes':<22} {suite:5.1f} % of a core (no target)")
 
