@@ -149,6 +149,7 @@ class MonitorNode(SuiteNodeBase):
         self.last_beat_reason = ""  # why the latest beat was not judged, if it was not
         self.beats_not_judged = 0
         self.last_verdict: tuple[Verdict, str, int] | None = None  # latest judged beat
+        self.last_judged_beat: BeatStatistics | None = None
         self.last_sample_time_s: float | None = None
         self.last_input_ns: int | None = None
         self.last_progress_ns = self.get_clock().now().nanoseconds
@@ -283,6 +284,7 @@ class MonitorNode(SuiteNodeBase):
         else:
             self.last_beat_reason = ""
             self.last_verdict = (verdict, text, beat.index)
+            self.last_judged_beat = beat
         # The swimming figures are over time, so a carrier angle that did not advance leaves them
         # defined; over a hole in the data they would be as wrong as the symmetry.
         self.last_tip_kinematics = None if beat.gap_s > 0.0 else kinematics
@@ -337,9 +339,12 @@ class MonitorNode(SuiteNodeBase):
             )
         else:
             level, text = self._verdict_status()
-        if self.last_beat is not None:
-            beat = self.last_beat
+        # The figures of the beat the verdict quotes (the latest judged one): a later beat that
+        # could not be judged (a gap in the input) would put other numbers beside its text.
+        beat = self.last_judged_beat or self.last_beat
+        if beat is not None:
             values.update(
+                beat_index=str(beat.index),
                 amplitude_deg=f"{math.degrees(beat.amplitude_rad):.3f}",
                 frequency_hz=f"{beat.frequency_hz:.4f}",
             )
