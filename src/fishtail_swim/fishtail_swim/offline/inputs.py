@@ -16,11 +16,7 @@ from typing import NamedTuple, NoReturn
 
 from fishtail_common.config_files import default_parameter_file
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
-from fishtail_kinematics.engine.link_inertia import (
-    LinkInertia,
-    inertia_parameters_in,
-    link_inertia_from_parameters,
-)
+from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import (
     MECHANISM,
@@ -31,6 +27,7 @@ from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_par
 from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
 from fishtail_swim.fish_config import read_fish_values
+from fishtail_swim.tail_and_fish import link_inertia_from_values
 
 PROGRAM = "fishtail-swim"
 #: The fish's parameter file, under config/ of the workspace or of the install.
@@ -117,8 +114,7 @@ def _config_file(arguments: argparse.Namespace) -> Path:
 
 def link_inertia_from_arguments(arguments: argparse.Namespace) -> LinkInertia:
     """The links' masses and inertias from the tail's parameter file (defaults for the others)."""
-    values = load_parameter_file(_config_file(arguments))
-    return link_inertia_from_parameters(inertia_parameters_in(values))
+    return link_inertia_from_values(load_parameter_file(_config_file(arguments)))
 
 
 def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
