@@ -8,7 +8,7 @@ way the nodes do. Topic names are relative (a namespace moves the whole suite) e
 >>> TAIL_STATE.name, TAIL_STATE.type
 ('tail/state', 'fishtail_msgs/msg/TailState')
 >>> [topic.name for topic in SUITE_TOPICS if topic.qos is QosKind.SENSOR_DATA]
-['motor/joint_state', 'tail/joint_states', 'tail/tip', 'tail/state', 'fish/odom']
+['motor/joint_state', 'pivot/joint_state', 'tail/joint_states', 'tail/tip', 'tail/state', 'fish/odom']
 """
 
 from __future__ import annotations
@@ -63,11 +63,29 @@ class Topic:
 MOTOR_CMD_SPEED = Topic(
     "motor/cmd_speed", "std_msgs/msg/Float64", QosKind.RELIABLE, "carrier speed command, rad/s >= 0"
 )
+MOTOR_CMD_PROFILE = Topic(
+    "motor/cmd_profile",
+    "fishtail_msgs/msg/CarrierSpeedProfile",
+    QosKind.RELIABLE,
+    "carrier speed command with a once-per-revolution modulation (mean rad/s, depth, phase rad)",
+)
 MOTOR_JOINT_STATE = Topic(
     "motor/joint_state",
     "sensor_msgs/msg/JointState",
     QosKind.SENSOR_DATA,
     "carrier joint: unwrapped angle rad, velocity rad/s, stamped when the encoder was read",
+)
+PIVOT_CMD_POSITION = Topic(
+    "pivot/cmd_position",
+    "std_msgs/msg/Float64",
+    QosKind.RELIABLE,
+    "pivot actuator command: shift of the tail pivot S along the body axis from its design, m",
+)
+PIVOT_JOINT_STATE = Topic(
+    "pivot/joint_state",
+    "sensor_msgs/msg/JointState",
+    QosKind.SENSOR_DATA,
+    "pivot actuator: shift of S m (+ towards the tail), its rate m/s",
 )
 TAIL_JOINT_STATES = Topic(
     "tail/joint_states", "sensor_msgs/msg/JointState", QosKind.SENSOR_DATA, "theta1..theta5, rad"
@@ -105,12 +123,20 @@ FISH_SWIMMING = Topic(
     QosKind.LATCHED,
     "simulated fish's swimming figures, one message per beat",
 )
+#: A velocity command for the fish (forward m/s in linear.x, yaw rate rad/s in angular.z), as any
+#: mobile base takes it; the pilot turns it into carrier and pivot commands.
+CMD_VEL = Topic(
+    "cmd_vel",
+    "geometry_msgs/msg/Twist",
+    QosKind.RELIABLE,
+    "velocity command for the fish: linear.x m/s, angular.z rad/s in base_link",
+)
 #: A goal for the simulated fish, from whoever sets one (RViz's 2D Goal Pose tool publishes here).
 GOAL_POSE = Topic(
     "goal_pose",
     "geometry_msgs/msg/PoseStamped",
     QosKind.RELIABLE,
-    "a goal for the simulated fish in world (shown by the live view)",
+    "a goal for the fish in world: the pilot swims there (the live view shows it)",
 )
 DIAGNOSTICS = Topic(
     "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosKind.RELIABLE, "every node's health"
@@ -135,8 +161,13 @@ TF_STATIC = Topic(
 #: /tf and /tf_static are not among them: tf2_msgs is not always installed (no wheel of it), and
 #: the transforms follow from fish/odom and the fish's parameters.
 SUITE_TOPICS: tuple[Topic, ...] = (
+    CMD_VEL,
+    GOAL_POSE,
     MOTOR_CMD_SPEED,
+    MOTOR_CMD_PROFILE,
+    PIVOT_CMD_POSITION,
     MOTOR_JOINT_STATE,
+    PIVOT_JOINT_STATE,
     TAIL_JOINT_STATES,
     TAIL_TIP,
     TAIL_STATE,
@@ -148,6 +179,8 @@ SUITE_TOPICS: tuple[Topic, ...] = (
 
 #: The joint the driver publishes and the kinematics node follows.
 CARRIER_JOINT = "carrier_joint"
+#: The pivot actuator's prismatic joint (the shift of S along the body axis).
+PIVOT_JOINT = "pivot_joint"
 #: The frame of the tail mechanism: origin at the ring-gear centre O, x along the stroke.
 TAIL_FRAME = "tail_mechanism"
 #: The fixed frame the simulated fish swims in (x, y horizontal, z up).
@@ -180,6 +213,9 @@ SUITE_NODES: tuple[SuiteNode, ...] = (
 )
 #: The swimming simulator: not in the default suite (``fishtail-run --swim`` adds it).
 SWIM_NODE = SuiteNode("swim", "fishtail_swim", "sim", "fishtail_swim.nodes.sim_node")
+#: The pilot (cmd_vel and goal_pose in, carrier and pivot commands out): not in the default suite
+#: (``fishtail-run --pilot`` adds it, with the simulator).
+PILOT_NODE = SuiteNode("pilot", "fishtail_swim", "pilot", "fishtail_swim.nodes.pilot_node")
 #: The live view (a Rerun viewer's data source): not in the default suite (``fishtail-run --view``
 #: adds it).
 VIEW_NODE = SuiteNode("view", "fishtail_bringup", "fishtail-view", "fishtail_bringup.view")

@@ -45,3 +45,7 @@ class ParameterError(FishtailKinematicsError, ParameterValueError):
     Also a :class:`~fishtail_common.parameters.ParameterValueError`, so that code handling the
     suite's parameter refusals handles the engine's too.
     """
+
+
+class CarrierProfileError(FishtailKinematicsError):
+    """A carrier speed profile with a negative or non-finite speed, or a depth out of range."""

@@ -1,0 +1,132 @@
+"""The carrier's speed over one revolution: a mean speed and a once-per-revolution modulation.
+
+A one-way motor cannot bias the tail's swing, but it can run the carrier faster through one
+half-stroke than through the other. The profile is a function of the carrier angle phi (what the
+driver measures and can follow):
+
+    phi_dot(phi) = Omega (1 + delta cos(phi - phi_0)) / sqrt(1 - delta²)
+
+with Omega the mean speed, delta the modulation depth (0 <= delta < 1) and phi_0 the carrier angle
+of the fastest point. The factor 1/sqrt(1 - delta²) keeps a revolution's duration 2 pi / Omega at
+every depth, so the beat frequency is Omega / 2 pi whatever the modulation (steering does not
+change the speed command's meaning).
+
+The motion from a start angle has a closed form. With the mean phase nu, which grows as Omega t,
+and chi = phi - phi_0:
+
+    tan(chi / 2) = sqrt((1 + delta) / (1 - delta)) tan(nu / 2)
+
+(integrate dt = dphi / phi_dot(phi)), so :meth:`CarrierSpeedProfile.motion` gives phi, phi_dot and
+phi_ddot at any time without integrating, and :meth:`CarrierSpeedProfile.mean_phase` inverts it.
+
+>>> profile = CarrierSpeedProfile(mean_speed_rad_s=2 * math.pi, depth=0.5, phase_rad=0.0)
+>>> round(profile.speed_at(0.0) / profile.speed_at(math.pi), 6)  # (1 + delta) / (1 - delta)
+3.0
+>>> motion = profile.motion()
+>>> angle, speed, _ = motion(np.array([0.0, 0.5, 1.0]))  # one revolution takes 2 pi / Omega
+>>> np.round(angle, 9).tolist()
+[0.0, 3.141592654, 6.283185307]
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_kinematics.engine.errors import CarrierProfileError
+
+FloatArray = npt.NDArray[np.float64]
+#: phi(t), phi_dot(t), phi_ddot(t) of the carrier, for any array of times.
+CarrierMotion = Callable[[npt.ArrayLike], tuple[FloatArray, FloatArray, FloatArray]]
+
+#: The deepest modulation accepted: at delta = 0.9 the slowest point runs at 0.23 Omega and the
+#: fastest at 4.4 Omega; deeper, the carrier all but stops once a revolution.
+MAX_DEPTH = 0.9
+TWO_PI = 2.0 * math.pi
+
+
+@dataclasses.dataclass(frozen=True)
+class CarrierSpeedProfile:
+    """Mean speed Omega [rad/s], depth delta and the fastest point's carrier angle phi_0 [rad]."""
+
+    mean_speed_rad_s: float
+    depth: float = 0.0
+    phase_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Refuse a negative or non-finite speed, a depth outside [0, MAX_DEPTH], a NaN phase."""
+        if not (math.isfinite(self.mean_speed_rad_s) and self.mean_speed_rad_s >= 0.0):
+            raise CarrierProfileError(
+                f"mean_speed_rad_s = {self.mean_speed_rad_s!r}: must be finite and >= 0 "
+                "(the motor turns one way)"
+            )
+        if not (math.isfinite(self.depth) and 0.0 <= self.depth <= MAX_DEPTH):
+            raise CarrierProfileError(
+                f"depth = {self.depth!r}: must be in [0, {MAX_DEPTH}] (the fraction by which the "
+                "speed rises above and falls below its mean once a revolution)"
+            )
+        if not math.isfinite(self.phase_rad):
+            raise CarrierProfileError(f"phase_rad = {self.phase_rad!r}: must be finite")
+
+    @property
+    def _scale(self) -> float:
+        return self.mean_speed_rad_s / math.sqrt(1.0 - self.depth * self.depth)
+
+    @property
+    def peak_speed_rad_s(self) -> float:
+        """The fastest speed, at phi = phi_0."""
+        return self._scale * (1.0 + self.depth)
+
+    @property
+    def lowest_speed_rad_s(self) -> float:
+        """The slowest speed, at phi = phi_0 + pi."""
+        return self._scale * (1.0 - self.depth)
+
+    def speed_at(self, angle_rad: float) -> float:
+        """The commanded carrier speed at carrier angle ``angle_rad`` (the driver's per-sample path)."""
+        return self._scale * (1.0 + self.depth * math.cos(angle_rad - self.phase_rad))
+
+    def mean_phase(self, angle_rad: npt.ArrayLike) -> FloatArray:
+        """The mean phase nu (Omega t from phi_0) of carrier angle(s), continuous in the angle."""
+        chi = np.asarray(angle_rad, dtype=float) - self.phase_rad
+        half = 0.5 * chi
+        wrapped = 2.0 * np.arctan2(
+            math.sqrt(1.0 - self.depth) * np.sin(half), math.sqrt(1.0 + self.depth) * np.cos(half)
+        )
+        # nu - chi is periodic and within (-pi, pi): pick the branch nearest chi.
+        result: FloatArray = wrapped + TWO_PI * np.round((chi - wrapped) / TWO_PI)
+        return result
+
+    def angle_at_phase(self, mean_phase: npt.ArrayLike) -> FloatArray:
+        """The carrier angle at mean phase(s) nu: the inverse of :meth:`mean_phase`."""
+        nu = np.asarray(mean_phase, dtype=float)
+        half = 0.5 * nu
+        wrapped = 2.0 * np.arctan2(
+            math.sqrt(1.0 + self.depth) * np.sin(half), math.sqrt(1.0 - self.depth) * np.cos(half)
+        )
+        chi = wrapped + TWO_PI * np.round((nu - wrapped) / TWO_PI)
+        result: FloatArray = chi + self.phase_rad
+        return result
+
+    def motion(self, start_time_s: float = 0.0, start_angle_rad: float = 0.0) -> CarrierMotion:
+        """phi(t), phi_dot(t), phi_ddot(t) of the carrier at ``start_angle_rad`` at ``start_time_s``.
+
+        Before ``start_time_s`` the same law runs backwards (the formula holds for any t).
+        """
+        start_phase = float(self.mean_phase(start_angle_rad))
+        omega, depth, phase, scale = self.mean_speed_rad_s, self.depth, self.phase_rad, self._scale
+
+        def carrier(time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+            nu = start_phase + omega * (np.asarray(time_s, dtype=float) - start_time_s)
+            angle = self.angle_at_phase(nu)
+            chi = angle - phase
+            speed = scale * (1.0 + depth * np.cos(chi))
+            # phi_ddot = d(phi_dot)/d(phi) * phi_dot
+            acceleration = -scale * depth * np.sin(chi) * speed
+            return angle, speed, acceleration
+
+        return carrier
