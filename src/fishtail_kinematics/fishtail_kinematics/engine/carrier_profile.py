@@ -87,7 +87,7 @@ class CarrierSpeedProfile:
         return self._scale * (1.0 - self.depth)
 
     def speed_at(self, angle_rad: float) -> float:
-        """The commanded carrier speed at carrier angle ``angle_rad`` (the driver's per-sample path)."""
+        """The carrier speed at carrier angle ``angle_rad`` (the driver's per-sample path)."""
         return self._scale * (1.0 + self.depth * math.cos(angle_rad - self.phase_rad))
 
     def mean_phase(self, angle_rad: npt.ArrayLike) -> FloatArray:
@@ -113,7 +113,7 @@ class CarrierSpeedProfile:
         return result
 
     def motion(self, start_time_s: float = 0.0, start_angle_rad: float = 0.0) -> CarrierMotion:
-        """phi(t), phi_dot(t), phi_ddot(t) of the carrier at ``start_angle_rad`` at ``start_time_s``.
+        """phi(t), phi_dot(t), phi_ddot(t), starting at ``start_angle_rad`` at ``start_time_s``.
 
         Before ``start_time_s`` the same law runs backwards (the formula holds for any t).
         """
