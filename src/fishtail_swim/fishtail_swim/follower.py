@@ -284,6 +284,16 @@ class SwimFollower:
         self._last_stamp_ns = stamp_ns
         self._restart((stamp_ns - self.first_stamp_ns) * 1e-9, angle_rad)
 
+    def set_tail(self, tail: Tail) -> None:
+        """Swim with ``tail`` from the next sample on; the fish's state and beat carry on.
+
+        For a tail whose geometry changes slowly while it swims (the pivot actuator moving S):
+        the change takes effect at a sample, a step in the tail's motion no larger than the
+        actuator's travel in one sample interval.
+        """
+        self.model = SwimModel(self.fish, EngineTailDrive(tail, self.carrier))
+        self._stepper = Stepper(self.model, 1)
+
     def take_beats(self) -> list[BeatFigures]:
         """The beats completed since the last call, oldest first."""
         finished, self.finished = self.finished, []
