@@ -65,6 +65,72 @@ def fish_text(speed_m_s: float | None, heading_rad: float | None) -> str:
     return f"fish {speed_m_s:.3f} m/s heading {math.degrees(heading_rad):+6.2f}°"
 
 
+def pilot_text(
+    position_m: tuple[float, float], heading_rad: float, goal_m: tuple[float, float] | None
+) -> str:
+    """The pilot's part of the status line: where the fish is, its heading, the distance to go.
+
+    >>> pilot_text((1.0, 2.0), math.pi / 2, (4.0, 6.0))
+    'at (1.00, 2.00) m heading  +90.0° goal (4.00, 6.00) m, 5.00 m to go'
+    >>> pilot_text((0.0, 0.0), 0.0, None)
+    'at (0.00, 0.00) m heading   +0.0° no goal'
+    """
+    heading = math.degrees(heading_rad)
+    where = f"at ({position_m[0]:.2f}, {position_m[1]:.2f}) m heading {heading:+6.1f}°"
+    if goal_m is None:
+        return f"{where} no goal"
+    distance = math.hypot(goal_m[0] - position_m[0], goal_m[1] - position_m[1])
+    return f"{where} goal ({goal_m[0]:.2f}, {goal_m[1]:.2f}) m, {distance:.2f} m to go"
+
+
+class GoalRoute:
+    """Waypoints visited in turn: the current one until the fish is within the tolerance of it.
+
+    >>> route = GoalRoute([(1.0, 0.0), (1.0, 1.0)], tolerance_m=0.2)
+    >>> route.current
+    (1.0, 0.0)
+    >>> route.update((0.9, 0.05)), route.current
+    (True, (1.0, 1.0))
+    >>> route.update((1.0, 0.9)), route.current, route.finished
+    (True, None, True)
+    """
+
+    def __init__(self, waypoints: list[tuple[float, float]], tolerance_m: float) -> None:
+        """Start at the first waypoint."""
+        self.waypoints = list(waypoints)
+        self.tolerance_m = tolerance_m
+        self.index = 0
+
+    @property
+    def current(self) -> tuple[float, float] | None:
+        """The waypoint being swum to (None when all are reached)."""
+        return self.waypoints[self.index] if self.index < len(self.waypoints) else None
+
+    @property
+    def finished(self) -> bool:
+        """Every waypoint reached."""
+        return self.index >= len(self.waypoints)
+
+    def update(self, position_m: tuple[float, float]) -> bool:
+        """Move to the next waypoint if the current one is reached; whether it moved."""
+        goal = self.current
+        if goal is None:
+            return False
+        if math.hypot(goal[0] - position_m[0], goal[1] - position_m[1]) > self.tolerance_m:
+            return False
+        self.index += 1
+        return True
+
+
+def square_route(side_m: float) -> list[tuple[float, float]]:
+    """A square's corners, side ``side_m``, anticlockwise from the start (0, 0) and back to it.
+
+    >>> square_route(2.0)
+    [(2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (0.0, 0.0)]
+    """
+    return [(side_m, 0.0), (side_m, side_m), (0.0, side_m), (0.0, 0.0)]
+
+
 def motor_text(torque_n_m: float, current_a: float | None) -> str:
     """The simulated DC motor's part of the status line: the torque on the carrier, the current.
 

@@ -31,6 +31,7 @@ import math
 from collections import deque
 from typing import NamedTuple, Protocol
 
+from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 
 TWO_PI = 2.0 * math.pi
@@ -121,7 +122,7 @@ class PilotSettings:
     #: U / f of straight swimming: the distance covered per beat (m).
     speed_per_beat_m: float
     #: The driver's highest carrier speed (rad/s): the profile's peak stays within it.
-    max_carrier_speed_rad_s: float
+    max_carrier_speed_rad_s: float = 20.0
     #: Carrier speed per m/s of beat-mean speed error, as a fraction of the feed-forward's slope.
     speed_gain: float = 2.0
     #: Integral action of the speed loop (1/s): the fraction of the error added per second.
@@ -136,6 +137,32 @@ class PilotSettings:
     goal_tolerance_m: float = 0.15
     #: The beat-mean window before the carrier turns (s); after that, one beat.
     idle_window_s: float = 1.0
+
+
+_DEFAULTS = PilotSettings(speed_per_beat_m=1.0)
+
+#: The pilot's gains and limits as parameters (the node's; defaults from PilotSettings).
+CONTROL_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec("speed_gain", _DEFAULTS.speed_gain,
+                  "speed feedback, as a multiple of the feed-forward's carrier speed per m/s", "",
+                  0.0, 20.0),
+    ParameterSpec("speed_integral_per_s", _DEFAULTS.speed_integral_per_s,
+                  "integral action of the speed loop", "1/s", 0.0, 10.0),
+    ParameterSpec("heading_gain_per_s", _DEFAULTS.heading_gain_per_s,
+                  "yaw-rate demand per radian of heading error", "1/s", 0.0, 10.0),
+    ParameterSpec("cruise_speed_m_s", _DEFAULTS.cruise_speed_m_s,
+                  "speed towards a goal", "m/s", 0.0, 10.0),
+    ParameterSpec("slow_down_distance_m", _DEFAULTS.slow_down_distance_m,
+                  "within this distance of a goal the speed falls with the distance", "m",
+                  0.01, 100.0),
+    ParameterSpec("goal_tolerance_m", _DEFAULTS.goal_tolerance_m,
+                  "a goal this close is reached and the carrier stops", "m", 0.01, 10.0),
+    ParameterSpec("max_carrier_speed_rad_s", _DEFAULTS.max_carrier_speed_rad_s,
+                  "the driver's top carrier speed: the profile's peak stays within it", "rad/s",
+                  0.1, 1000.0),
+)  # fmt: skip
+#: A goal this close is reached (the console's route uses it too).
+GOAL_TOLERANCE = next(spec for spec in CONTROL_PARAMETERS if spec.name == "goal_tolerance_m")
 
 
 class Mode(enum.Enum):
@@ -316,8 +343,8 @@ class Pilot:
         pushing_down = mean_speed <= 0.0 and error < 0.0
         if not (pushing_up or pushing_down):
             # Integrate only while the carrier can still act on the error (no wind-up).
-            self._integral_rad_s += settings.speed_integral_per_s * settings.speed_gain * slope * (
-                error * dt
+            self._integral_rad_s += (
+                settings.speed_integral_per_s * settings.speed_gain * slope * (error * dt)
             )
         mean_speed = min(max(mean_speed, 0.0), ceiling)
         wanted_yaw = self.yaw_rate_command_rad_s
