@@ -19,6 +19,10 @@ class AssemblyError(FishtailKinematicsError):
     """The linkage cannot be assembled over the whole stroke of the Cardan point."""
 
 
+class PivotShiftError(FishtailKinematicsError):
+    """A shift of the pivot S is non-finite or outside the range where the linkage assembles."""
+
+
 class PinOffsetError(FishtailKinematicsError):
     """The pin U of the undulatory mechanism lies outside 0 < SU < SW - VW."""
 

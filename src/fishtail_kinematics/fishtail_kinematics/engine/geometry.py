@@ -135,7 +135,14 @@ GEOMETRY_TYPES: dict[str, type[OscillatoryGeometry] | type[UndulatoryGeometry]] 
 
 
 class OscillatoryState(NamedTuple):
-    """Pose and rates of mechanism 1 (floats or equally shaped arrays); SI units, radians."""
+    """Pose and rates of mechanism 1 (floats or equally shaped arrays); SI units, radians.
+
+    theta3 is measured from the swing's current mid-line (0 at mid-swing); ``fin_angle`` is the
+    tail link's angle from the body axis, theta3 plus the swing bias of a shifted pivot
+    (``Tail.swing_bias_rad``). Without a shift the two are equal, and on the array path
+    ``fin_angle`` may then be the very array ``theta3`` is (as ``theta3_dot`` and
+    ``fin_angle_dot`` are ``theta2_dot``): treat a solved state's arrays as read-only.
+    """
 
     motor_angle: Real
     motor_velocity: Real
@@ -151,10 +158,17 @@ class OscillatoryState(NamedTuple):
     tip_y: Real
     tip_x_dot: Real
     tip_y_dot: Real
+    fin_angle: Real  # the tail link ST from the body axis: theta3 + swing bias
+    fin_angle_dot: Real
 
 
 class UndulatoryState(NamedTuple):
-    """Pose and rates of mechanism 2; the first fields mean what they mean in mechanism 1."""
+    """Pose and rates of mechanism 2; the first fields mean what they mean in mechanism 1.
+
+    The second loop (theta4, AU, AS, theta5) is solved from SW's angle to the body axis, theta3
+    plus the swing bias of a shifted pivot, so theta4 and theta5 are body-frame angles;
+    ``fin_angle`` and ``fin_angle_dot`` are theta5 and its rate (the same arrays on the array path).
+    """
 
     motor_angle: Real
     motor_velocity: Real
@@ -178,6 +192,8 @@ class UndulatoryState(NamedTuple):
     slider_a_distance_rate: Real
     theta5: Real
     theta5_dot: Real
+    fin_angle: Real  # the fin link VT from the body axis: theta5
+    fin_angle_dot: Real
 
 
 LinkageState: TypeAlias = OscillatoryState | UndulatoryState

@@ -157,7 +157,8 @@ def _drive_motion(
     op, op_rate = state.slider_position, state.slider_velocity
     op_rate_derivative = -op * speed * speed
     theta1_rate, theta2_rate = state.theta1_dot, state.theta2_dot
-    # theta2 = theta3 + mid: the sum formulas instead of two more sines and cosines of arrays.
+    # theta2 = (the tail link's body-frame angle) + theta2_mid: the sum formulas instead of two
+    # more sines and cosines of arrays.
     cos_mid, sin_mid = math.cos(theta2_mid), math.sin(theta2_mid)
     cos2 = cos3 * cos_mid - sin3 * sin_mid
     sin2 = sin3 * cos_mid + cos3 * sin_mid
@@ -196,9 +197,11 @@ def oscillatory_link_motion(
 ) -> tuple[BodyMotion, ...]:
     """Carrier, planet, PR, RS and ST of mechanism 1 for ``state`` (solved for ``geometry``).
 
-    ``theta2_mid`` is the drive's mid-swing angle (theta3 = theta2 - theta2_mid).
+    ``geometry`` has S where it is (``Tail.shifted_geometry``); ``theta2_mid`` is theta2 at which
+    the tail link lies along the body axis (``tail_mounting_rad``, the design's mid-swing), so
+    that the tail link's angle from the body axis is theta2 - theta2_mid.
     """
-    # theta3 from the tip, T = S + ST e(theta3): no trigonometry of arrays.
+    # The tail link's angle from the tip, T = S + ST e(angle): no trigonometry of arrays.
     cos3 = (state.tip_x - geometry.pivot_offset_m) / geometry.tail_link_m
     sin3 = state.tip_y / geometry.tail_link_m
     drive = _drive_motion(geometry, theta2_mid, state, cos3, sin3)
@@ -209,11 +212,21 @@ def oscillatory_link_motion(
 
 
 def undulatory_link_motion(
-    geometry: UndulatoryGeometry, theta2_mid: float, state: UndulatoryState
+    geometry: UndulatoryGeometry,
+    theta2_mid: float,
+    state: UndulatoryState,
+    swing_bias_rad: float = 0.0,
 ) -> tuple[BodyMotion, ...]:
-    """The drive, SW, the slider A, AV and VT of mechanism 2 for ``state``."""
+    """The drive, SW, the slider A, AV and VT of mechanism 2 for ``state``.
+
+    ``geometry`` and ``theta2_mid`` as for :func:`oscillatory_link_motion`; ``swing_bias_rad`` is
+    the tail's swing bias (SW lies at theta3 + bias from the body axis).
+    """
     g = geometry
+    # SW's angle from the body axis, which the second loop and the drive's identities use.
     theta3 = np.asarray(state.theta3)
+    if swing_bias_rad != 0.0:
+        theta3 = theta3 + swing_bias_rad
     cos3, sin3 = np.cos(theta3), np.sin(theta3)
     drive = _drive_motion(g, theta2_mid, state, cos3, sin3)
     rate3, rate3_derivative = drive.theta2_rate, drive.theta2_rate_derivative

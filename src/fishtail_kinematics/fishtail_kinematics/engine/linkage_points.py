@@ -21,9 +21,11 @@ along the x axis: the couple's second straight line. Drawing the diameter P-D sh
 rotation.
 
 Mechanism 1: joint R (``joint_r``) = P + PR (cos theta1, -sin theta1) = S + RS e(theta2);
-tip T = S + ST e(theta3), S = (OS, 0).
-Mechanism 2: W = S + SW e(theta3), pin U = S + SU e(theta3) (on SW), slider A = (OS - AS, 0),
-V = A + AV e(theta4) (U lies on AV, in its slot), T = W + (VT - VW) e(theta5).
+tip T = S + ST e(fin angle), S = (OS + pivot shift, 0).
+Mechanism 2: W = S + SW e(theta3 + b), pin U = S + SU e(theta3 + b) (on SW), slider
+A = (S_x - AS, 0), V = A + AV e(theta4) (U lies on AV, in its slot), T = W + (VT - VW) e(theta5),
+where b is the swing bias of a shifted pivot (SW's angle from the body axis is theta3 + b). The
+geometry given is the one with S where it is (``Tail.shifted_geometry``).
 
 Each tail gives the points of its states (``Tail.link_points``), and the points say which of them
 make the links and the moving joints, so that drawing code does not depend on the mechanism.
@@ -157,17 +159,23 @@ def oscillatory_points(
     )
 
 
-def undulatory_points(geometry: UndulatoryGeometry, state: UndulatoryState) -> UndulatoryPoints:
-    """Every joint of mechanism 2 for ``state`` (solved for ``geometry``)."""
+def undulatory_points(
+    geometry: UndulatoryGeometry, state: UndulatoryState, swing_bias_rad: float = 0.0
+) -> UndulatoryPoints:
+    """Every joint of mechanism 2 for ``state`` (solved for ``geometry``, S where it is).
+
+    ``swing_bias_rad``: the tail's swing bias, so that SW lies at theta3 + bias from the body axis.
+    """
     g = geometry
     drive = oscillatory_points(g, state)
     zeros = np.zeros(np.shape(state.motor_angle))
     slider_a = _xy(g.pivot_offset_m - np.asarray(state.slider_a_distance, float), zeros)
+    arm_angle = state.theta3 if swing_bias_rad == 0.0 else state.theta3 + swing_bias_rad
     return UndulatoryPoints(
         *drive[:-1],
-        pin_u=_polar(drive.pivot_s, g.pin_offset_m, state.theta3),
+        pin_u=_polar(drive.pivot_s, g.pin_offset_m, arm_angle),
         slider_a=slider_a,
         joint_v=_polar(slider_a, g.slotted_link_m, state.theta4),
-        joint_w=_polar(drive.pivot_s, g.swing_arm_m, state.theta3),
+        joint_w=_polar(drive.pivot_s, g.swing_arm_m, arm_angle),
         tip=drive.tip,
     )

@@ -5,6 +5,7 @@ See :mod:`~fishtail_kinematics.engine.mechanisms` for the conventions and the sh
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import cast
 
@@ -34,7 +35,12 @@ from fishtail_kinematics.engine.tail_base import (
     Tail,
     assembly_violations,
     check_finite_scalars,
+    check_pivot_shift,
+    drive_pivot_shift_range,
 )
+
+#: What bounds the drive's pivot shifts (the assembly conditions with OS + s for OS).
+_DRIVE_LIMITS = "|RS - PR| < OS + shift and (OS + shift)^2 + R^2 < (RS + PR)^2"
 
 
 class OscillatoryTail(Tail):
@@ -66,8 +72,18 @@ class OscillatoryTail(Tail):
         self._PR = g.crank_link_m
         self._RS = g.rocker_link_m
         self._ST = g.tail_link_m
-        self._OS = g.pivot_offset_m
         self._psi = g.phase_rad
+        self._place_pivot(g.pivot_offset_m)
+        #: theta2 at which the tail link lies along the body axis: the design's mid-swing. The
+        #: link is rigid with RS, so a pivot shift keeps it (see :meth:`with_pivot_shift`).
+        self.tail_mounting_rad = self.theta2_mid
+        self._cos_mounting = math.cos(self.tail_mounting_rad)
+        self._sin_mounting = math.sin(self.tail_mounting_rad)
+        self._unshifted = self
+
+    def _place_pivot(self, pivot_offset_m: float) -> None:
+        """Put S at (pivot_offset_m, 0) and find the swing's extremes there (a few us)."""
+        self._OS = pivot_offset_m
         # Constant part of the numerator of K, so the per-sample path adds only OP^2.
         self._k_constant = self._RS**2 + self._OS**2 - self._PR**2
         self.stationary_slider_positions = self._stationary_slider_positions()
@@ -77,15 +93,38 @@ class OscillatoryTail(Tail):
         self.theta2_max = max(values)
         self.slider_at_theta2_min = candidates[values.index(self.theta2_min)]
         self.slider_at_theta2_max = candidates[values.index(self.theta2_max)]
+        #: Mid-swing at the current pivot: theta3 = theta2 - theta2_mid.
         self.theta2_mid = 0.5 * (self.theta2_min + self.theta2_max)
-        self._cos_mid = math.cos(self.theta2_mid)
-        self._sin_mid = math.sin(self.theta2_mid)
         self.swing_range_rad = self.theta2_max - self.theta2_min
 
     @property
     def drive(self) -> OscillatoryTail:
         """The tail itself: mechanism 1 is the drive."""
         return self
+
+    def pivot_shift_range(self) -> tuple[float, float]:
+        """The open interval of shifts at which the drive assembles (closed form, see tail_base)."""
+        g = self.geometry
+        return drive_pivot_shift_range(
+            g.ring_radius_m, g.crank_link_m, g.rocker_link_m, g.pivot_offset_m
+        )
+
+    def with_pivot_shift(self, pivot_shift_m: float) -> OscillatoryTail:
+        """This linkage with S at OS + ``pivot_shift_m``; the tail link keeps its mounting.
+
+        Costs about 15 us (a copy and the swing's extremes at the new pivot, closed form);
+        the unshifted tail itself is returned for a zero shift.
+        """
+        shift = float(pivot_shift_m)
+        check_pivot_shift(shift, self.pivot_shift_range(), _DRIVE_LIMITS)
+        unshifted = self._unshifted
+        if shift == 0.0:
+            return unshifted
+        tail = copy.copy(unshifted)
+        tail._pivot_shift_m = shift
+        tail._shifted_geometry = None
+        tail._place_pivot(unshifted._OS + shift)
+        return tail
 
     @property
     def monotone(self) -> bool:
@@ -149,22 +188,28 @@ class OscillatoryTail(Tail):
         theta2_dot = denominator * sin1 / self._RS
         theta1_dot = denominator * sin2 / self._PR
         theta3 = theta2 - self.theta2_mid
-        sin3 = math.sin(theta3)
-        cos3 = math.cos(theta3)
+        fin_angle = theta3 if self.theta2_mid == self.tail_mounting_rad else (
+            theta2 - self.tail_mounting_rad
+        )  # fmt: skip
+        sin_fin = math.sin(fin_angle)
+        cos_fin = math.cos(fin_angle)
         return OscillatoryState(
             phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
-            self._OS + self._ST * cos3, self._ST * sin3,
-            -self._ST * sin3 * theta2_dot, self._ST * cos3 * theta2_dot,
+            self._OS + self._ST * cos_fin, self._ST * sin_fin,
+            -self._ST * sin_fin * theta2_dot, self._ST * cos_fin * theta2_dot,
+            fin_angle, theta2_dot,
         )  # fmt: skip
 
     def link_points(self, state: LinkageState) -> OscillatoryPoints:
-        """Every joint of ``state`` in the frame at O."""
-        return oscillatory_points(self.geometry, state)
+        """Every joint of ``state`` in the frame at O (S where the pivot shift puts it)."""
+        return oscillatory_points(self.shifted_geometry, state)
 
     def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
         """Carrier, planet, PR, RS and ST (``state`` an oscillatory state)."""
         return oscillatory_link_motion(
-            self.geometry, self.theta2_mid, cast(OscillatoryState, state)
+            cast(OscillatoryGeometry, self.shifted_geometry),
+            self.tail_mounting_rad,
+            cast(OscillatoryState, state),
         )
 
     def _solve_array(self, phi: FloatArray, phi_dot: FloatArray) -> OscillatoryState:
@@ -173,7 +218,10 @@ class OscillatoryTail(Tail):
     def solve_array_with_tail_trig(
         self, phi: FloatArray, phi_dot: FloatArray
     ) -> tuple[OscillatoryState, FloatArray, FloatArray]:
-        """The array path, with cos and sin of theta3 (mechanism 2 builds on them)."""
+        """The array path, with cos and sin of the tail link's angle from the body axis.
+
+        That angle is ``fin_angle``, which mechanism 2's SW has.
+        """
         # np.sin/np.cos/np.hypot cost ~8 ns a sample in float64, the algebra below ~0.5 ns an
         # operation: so only the carrier angle goes through trigonometry, every other sine and
         # cosine comes from the angle-sum identities, and the work is done in place.
@@ -216,19 +264,23 @@ class OscillatoryTail(Tail):
         theta1_dot = np.multiply(rate, sin2, out=rate)
         theta1_dot *= 1.0 / self._PR
         theta3 = theta2 - self.theta2_mid
-        sin3 = sin2 * self._cos_mid
-        sin3 -= cos2 * self._sin_mid
-        cos3 = np.multiply(cos2, self._cos_mid, out=cos2)
-        cos3 += sin2 * self._sin_mid
-        tip_x = cos3 * self._ST
+        # Unshifted, the body-frame angle is theta3 itself: the same array, no extra pass.
+        fin_angle = theta3 if self.theta2_mid == self.tail_mounting_rad else (
+            theta2 - self.tail_mounting_rad
+        )  # fmt: skip
+        sin_fin = sin2 * self._cos_mounting
+        sin_fin -= cos2 * self._sin_mounting
+        cos_fin = np.multiply(cos2, self._cos_mounting, out=cos2)
+        cos_fin += sin2 * self._sin_mounting
+        tip_x = cos_fin * self._ST
         tip_x += self._OS
-        tip_y = sin3 * self._ST
+        tip_y = sin_fin * self._ST
         tip_x_dot = tip_y * theta2_dot
         np.negative(tip_x_dot, out=tip_x_dot)
-        tip_y_dot = cos3 * theta2_dot
+        tip_y_dot = cos_fin * theta2_dot
         tip_y_dot *= self._ST
         state = OscillatoryState(
             phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
-            tip_x, tip_y, tip_x_dot, tip_y_dot,
+            tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
         )  # fmt: skip
-        return state, cos3, sin3
+        return state, cos_fin, sin_fin

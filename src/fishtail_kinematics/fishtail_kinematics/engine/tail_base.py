@@ -8,6 +8,7 @@ is where callers get them (``make_tail``).
 from __future__ import annotations
 
 import abc
+import dataclasses
 import math
 from typing import TYPE_CHECKING, ClassVar, TypeVar
 
@@ -17,6 +18,7 @@ import numpy.typing as npt
 from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine.errors import (
     InvalidInputError,
+    PivotShiftError,
 )
 from fishtail_kinematics.engine.geometry import (
     GEOMETRY_PARAMETERS,
@@ -70,8 +72,10 @@ class Tail(abc.ABC):
     state_type: ClassVar[type[OscillatoryState] | type[UndulatoryState]]
 
     def __init__(self, geometry: Geometry) -> None:
-        """Keep ``geometry``; subclasses validate it."""
+        """Keep ``geometry`` (the design, with S unshifted); subclasses validate it."""
         self.geometry = geometry
+        self._pivot_shift_m = 0.0
+        self._shifted_geometry: Geometry | None = None
 
     @classmethod
     def parameters(cls) -> tuple[ParameterSpec, ...]:
@@ -86,8 +90,11 @@ class Tail(abc.ABC):
 
     @classmethod
     def fin_angle_field(cls) -> str:
-        """The state field of the last link's angle to the body axis: theta3 or the fin joint."""
-        return cls.fin_joint or "theta3"
+        """The state field of the last link's (ST or VT) angle to the body axis: ``fin_angle``.
+
+        Its rate is ``fin_angle_dot``; both are body-frame, whatever the pivot shift.
+        """
+        return "fin_angle"
 
     @classmethod
     def empty_state(cls, shape: int | tuple[int, ...]) -> LinkageState:
@@ -98,6 +105,49 @@ class Tail(abc.ABC):
         (2, 3)
         """
         return cls.state_type._make(np.empty(shape) for _ in cls.state_type._fields)
+
+    @property
+    def shifted_geometry(self) -> Geometry:
+        """The geometry with S where the pivot shift puts it (``geometry`` itself unshifted).
+
+        For drawing and the links' motion; made on first use (a dataclass copy costs ~30 us).
+        """
+        if self._pivot_shift_m == 0.0:
+            return self.geometry
+        if self._shifted_geometry is None:
+            self._shifted_geometry = dataclasses.replace(
+                self.geometry, pivot_offset_m=self.geometry.pivot_offset_m + self._pivot_shift_m
+            )
+        return self._shifted_geometry
+
+    @property
+    def pivot_shift_m(self) -> float:
+        """How far S is shifted from the design along the body axis, m (+ towards the tail)."""
+        return self._pivot_shift_m
+
+    @property
+    def swing_bias_rad(self) -> float:
+        """Angle of the swing's mid-line from the body axis, rad: mid(OS + s) - mid(OS).
+
+        The tail link keeps the mounting it was built with (along the body axis at the design's
+        mid-swing), so a shifted pivot turns the mid-line of the swing off the axis. Exactly 0
+        without a shift.
+        """
+        drive = self.drive
+        return drive.theta2_mid - drive.tail_mounting_rad
+
+    @abc.abstractmethod
+    def with_pivot_shift(self, pivot_shift_m: float) -> Tail:
+        """The same mechanism and links with S at (OS + ``pivot_shift_m``, 0).
+
+        The shift is measured from the design (not from this tail's shift); the tail link keeps
+        its mounting on the rocker. Raises :class:`PivotShiftError`, naming the feasible range,
+        for a non-finite shift or one at which the linkage cannot assemble over the stroke.
+        """
+
+    @abc.abstractmethod
+    def pivot_shift_range(self) -> tuple[float, float]:
+        """The open interval of pivot shifts (m, from the design) at which the linkage works."""
 
     @property
     @abc.abstractmethod
@@ -163,3 +213,32 @@ def assembly_violations(
             f"RS + PR = {reach:.6f} m by {farthest - reach:.6f} m"
         )
     return problems
+
+
+def drive_pivot_shift_range(
+    ring_radius_m: float, crank_link_m: float, rocker_link_m: float, pivot_offset_m: float
+) -> tuple[float, float]:
+    """The open interval of shifts s of S at which the drive assembles over the whole stroke.
+
+    The assembly conditions with OS + s for OS: |RS - PR| < OS + s and
+    (OS + s)^2 + R^2 < (RS + PR)^2. Empty (low >= high) when no position of S assembles.
+
+    >>> [round(x, 6) for x in drive_pivot_shift_range(0.1, 0.1, 0.233926, 0.2)]
+    [-0.066074, 0.118601]
+    """
+    reach_sq = (rocker_link_m + crank_link_m) ** 2 - ring_radius_m**2
+    farthest = math.sqrt(reach_sq) if reach_sq > 0.0 else 0.0
+    return abs(rocker_link_m - crank_link_m) - pivot_offset_m, farthest - pivot_offset_m
+
+
+def check_pivot_shift(shift_m: float, feasible: tuple[float, float], limits: str) -> None:
+    """Refuse a non-finite shift, or one outside the open interval ``feasible`` (PivotShiftError).
+
+    ``limits`` says what bounds the interval; the message names the interval in metres.
+    """
+    low, high = feasible
+    where = f"the feasible range is {low:.6f} m < shift < {high:.6f} m ({limits})"
+    if not math.isfinite(shift_m):
+        raise PivotShiftError(f"pivot shift must be finite, got {shift_m!r} m; {where}")
+    if not low < shift_m < high:
+        raise PivotShiftError(f"pivot shift {shift_m:.6f} m cannot be assembled: {where}")

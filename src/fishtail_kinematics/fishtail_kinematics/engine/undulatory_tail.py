@@ -5,17 +5,20 @@ See :mod:`~fishtail_kinematics.engine.mechanisms` for the conventions and the sh
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import cast
 
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.arm_sweep import ArmSweep, last_working_shift
 from fishtail_kinematics.engine.block_solve import solve_arrays
 from fishtail_kinematics.engine.errors import (
     AssemblyError,
     InvalidLengthError,
     PinOffsetError,
+    PivotShiftError,
     SolverError,
 )
 from fishtail_kinematics.engine.geometry import (
@@ -39,6 +42,7 @@ from fishtail_kinematics.engine.oscillatory_tail import OscillatoryTail
 from fishtail_kinematics.engine.tail_base import (
     ScalarOrArray,
     Tail,
+    check_pivot_shift,
 )
 
 # Loop-closure tolerance of the undulatory solver: how far W may sit off its circle about V. Each
@@ -51,6 +55,14 @@ _CONTINUATION_SAMPLES = 2001
 # reaches rounding level; more steps run only where the closure check asks for them.
 _SEED_POLYNOMIAL_DEGREE = 10
 _MAX_NEWTON_STEPS = 8
+# The feasible pivot shifts of mechanism 2: grid steps from zero to each end of the drive's
+# interval, and the bisection's tolerance where the second loop first fails.
+_RANGE_GRID = 64
+_RANGE_TOLERANCE_M = 1e-9
+_LIMITS = (
+    "the drive's |RS - PR| < OS + shift and (OS + shift)^2 + R^2 < (RS + PR)^2, and the second "
+    "loop on the straight pose's branch over SW's swing, found numerically"
+)
 
 
 class UndulatoryTail(Tail):
@@ -110,11 +122,89 @@ class UndulatoryTail(Tail):
                 f"{self.straight_slider_a_distance:.6f} m, not behind S"
             )
         self._fit_seed()
+        self._unshifted = self
+        # Built when a pivot shift is first asked for: the branch beyond the design's swing.
+        self._arm_sweep: ArmSweep | None = None
+        self._shift_range: tuple[float, float] | None = None
 
     @property
     def drive(self) -> OscillatoryTail:
         """The mechanism-1 drive, whose tail link is SW."""
         return self._drive
+
+    def pivot_shift_range(self) -> tuple[float, float]:
+        """The open interval of shifts at which both loops work over the whole stroke.
+
+        The drive's interval is closed form; within it the second loop must follow SW's swing at
+        the shift (:meth:`_arm_swing`) on the branch of the straight pose. That is found
+        numerically: the shifts on a grid of :data:`_RANGE_GRID` steps out from zero to each end
+        of the drive's interval, and bisection where the first one fails, to
+        :data:`_RANGE_TOLERANCE_M`. Computed once per design geometry (a few ms; more the first
+        time, when the second loop is followed beyond the design's swing).
+        """
+        unshifted = self._unshifted
+        if unshifted._shift_range is None:
+            drive_range = unshifted._drive.pivot_shift_range()
+            unshifted._shift_range = (
+                unshifted._shift_limit(drive_range[0]),
+                unshifted._shift_limit(drive_range[1]),
+            )
+        return unshifted._shift_range
+
+    def with_pivot_shift(self, pivot_shift_m: float) -> UndulatoryTail:
+        """This linkage with S at OS + ``pivot_shift_m``; SW keeps its mounting on the rocker.
+
+        The second loop is the design's (it depends on SW's body-frame angle only, see
+        :mod:`~fishtail_kinematics.engine.arm_sweep`); its branch is followed over the shifted
+        swing and the solver's seed refitted there. Costs about 1 ms (the drive's extremes and a
+        polynomial fit over the followed branch); the first shift of a geometry also finds
+        :meth:`pivot_shift_range` (10-30 ms). The unshifted tail itself is returned for zero.
+        """
+        shift = float(pivot_shift_m)
+        unshifted = self._unshifted
+        feasible = unshifted.pivot_shift_range()
+        check_pivot_shift(shift, feasible, _LIMITS)
+        if shift == 0.0:
+            return unshifted
+        drive = unshifted._drive.with_pivot_shift(shift)
+        low, high = unshifted._arm_swing(drive)
+        reason = unshifted._sweep().cover(low, high)
+        if reason is not None:
+            # Only within the bisection's tolerance of an end of the feasible range.
+            raise PivotShiftError(
+                f"pivot shift {shift:.6f} m: the second loop cannot follow SW over "
+                f"[{low:.6f}, {high:.6f}] rad from the body axis ({reason}); the feasible range "
+                f"is {feasible[0]:.6f} m < shift < {feasible[1]:.6f} m ({_LIMITS})"
+            )
+        tail = copy.copy(unshifted)
+        tail._pivot_shift_m = shift
+        tail._shifted_geometry = None
+        tail._drive = drive
+        tail._OS = unshifted._OS + shift
+        tail._set_seed(*unshifted._sweep().samples(low, high))
+        return tail
+
+    def _arm_swing(self, drive: OscillatoryTail) -> tuple[float, float]:
+        """SW's extreme angles from the body axis over the stroke of a (shifted) drive."""
+        return (
+            drive.theta2_min - drive.tail_mounting_rad,
+            drive.theta2_max - drive.tail_mounting_rad,
+        )
+
+    def _sweep(self) -> ArmSweep:
+        if self._arm_sweep is None:
+            self._arm_sweep = ArmSweep(self._pose_on_branch, self.straight_slider_a_distance)
+        return self._arm_sweep
+
+    def _second_loop_works(self, shift: float) -> bool:
+        drive = self._drive.with_pivot_shift(shift)
+        return self._sweep().cover(*self._arm_swing(drive)) is None
+
+    def _shift_limit(self, drive_limit: float) -> float:
+        """How far towards ``drive_limit`` (an end of the drive's open interval) shifts work."""
+        return last_working_shift(
+            self._second_loop_works, drive_limit, _RANGE_GRID, _RANGE_TOLERANCE_M
+        )
 
     # The loop, written relative to S with a = AS: A = (-a, 0), U = SU e(theta3),
     # theta4 = direction A->U, V = A + AV e(theta4), and W = SW e(theta3) must lie at VW from V.
@@ -144,28 +234,39 @@ class UndulatoryTail(Tail):
         for sweep in sweeps:
             a = self.straight_slider_a_distance
             for theta3 in sweep:
-                cos3, sin3 = math.cos(theta3), math.sin(theta3)
-                for _ in range(50):
-                    residual, slope = self._residual_and_slope(a, cos3, sin3)
-                    if not abs(slope) > 1e-9:
-                        raise AssemblyError(
-                            f"mechanism 2 reaches a toggle pose at theta3 = {theta3:.6f} rad "
-                            f"(loop slope {slope:.3e}): the linkage locks"
-                        )
-                    a -= residual / slope
-                    if abs(residual) < 1e-15:
-                        break
-                residual, _ = self._residual_and_slope(a, cos3, sin3)
-                if not abs(residual) < 1e-12:
-                    raise SolverError(
-                        f"mechanism 2 loop does not close at theta3 = {theta3:.6f} rad "
-                        f"(residual {residual:.3e} m^2)"
-                    )
-                self._check_pose(theta3, a, cos3, sin3)
+                a = self._pose_on_branch(float(theta3), a)
                 thetas.append(theta3)
                 solutions.append(a)
-        self._seed = np.polyfit(np.array(thetas), np.array(solutions), _SEED_POLYNOMIAL_DEGREE)
+        self._set_seed(np.array(thetas), np.array(solutions))
+
+    def _set_seed(self, arm_angles: FloatArray, slider_distances: FloatArray) -> None:
+        self._seed = np.polyfit(arm_angles, slider_distances, _SEED_POLYNOMIAL_DEGREE)
         self._seed_coefficients = tuple(float(c) for c in self._seed)
+
+    def _pose_on_branch(self, theta3: float, a: float) -> float:
+        """AS for SW at ``theta3`` from the body axis, continued from the nearby AS = ``a``.
+
+        Raises AssemblyError (toggle pose, pin out of the slot, A past S) or SolverError.
+        """
+        cos3, sin3 = math.cos(theta3), math.sin(theta3)
+        for _ in range(50):
+            residual, slope = self._residual_and_slope(a, cos3, sin3)
+            if not abs(slope) > 1e-9:
+                raise AssemblyError(
+                    f"mechanism 2 reaches a toggle pose at theta3 = {theta3:.6f} rad "
+                    f"(loop slope {slope:.3e}): the linkage locks"
+                )
+            a -= residual / slope
+            if abs(residual) < 1e-15:
+                break
+        residual, _ = self._residual_and_slope(a, cos3, sin3)
+        if not abs(residual) < 1e-12:
+            raise SolverError(
+                f"mechanism 2 loop does not close at theta3 = {theta3:.6f} rad "
+                f"(residual {residual:.3e} m^2)"
+            )
+        self._check_pose(theta3, a, cos3, sin3)
+        return a
 
     def _check_pose(self, theta3: float, a: float, cos3: float, sin3: float) -> None:
         au = math.hypot(a + self._SU * cos3, self._SU * sin3)
@@ -202,19 +303,27 @@ class UndulatoryTail(Tail):
 
     def link_points(self, state: LinkageState) -> UndulatoryPoints:
         """Every joint of ``state`` (an undulatory state) in the frame at O."""
-        return undulatory_points(self.geometry, cast(UndulatoryState, state))
+        return undulatory_points(
+            cast(UndulatoryGeometry, self.shifted_geometry),
+            cast(UndulatoryState, state),
+            self.swing_bias_rad,
+        )
 
     def link_motion(self, state: LinkageState) -> tuple[BodyMotion, ...]:
         """The drive, SW, the slider A, AV and VT (``state`` an undulatory state)."""
         return undulatory_link_motion(
-            self.geometry, self._drive.theta2_mid, cast(UndulatoryState, state)
+            cast(UndulatoryGeometry, self.shifted_geometry),
+            self._drive.tail_mounting_rad,
+            cast(UndulatoryState, state),
+            self.swing_bias_rad,
         )
 
     def _solve_array_path(self, phi: FloatArray, phi_dot: FloatArray) -> UndulatoryState:
         return self._solve_array(*self._drive.solve_array_with_tail_trig(phi, phi_dot))
 
     def _solve_scalar(self, d: OscillatoryState) -> UndulatoryState:
-        theta3 = cast(float, d.theta3)
+        # The loop turns with SW's angle to the body axis (theta3 + the swing bias).
+        theta3 = cast(float, d.fin_angle)
         cos3, sin3 = math.cos(theta3), math.sin(theta3)
         a = 0.0
         for coefficient in self._seed_coefficients:
@@ -246,7 +355,7 @@ class UndulatoryTail(Tail):
             )
         cos5 = ex / vw
         sin5 = ey / vw
-        rates = self._rates(d.theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
+        rates = self._rates(d.fin_angle_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
         theta4 = math.atan2(sin4, cos4)
         theta5 = math.atan2(sin5, cos5)
         return self._assemble(d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates)
@@ -254,8 +363,8 @@ class UndulatoryTail(Tail):
     def _solve_array(
         self, d: OscillatoryState, cos3: FloatArray, sin3: FloatArray
     ) -> UndulatoryState:
-        theta3 = d.theta3
-        a = cast(FloatArray, np.polyval(self._seed, theta3))
+        # cos3, sin3 and the seed's variable are those of SW's angle to the body axis.
+        a = cast(FloatArray, np.polyval(self._seed, d.fin_angle))
         residual, slope = self._residual_and_slope(a, cos3, sin3)
         step = residual / slope
         for _ in range(_MAX_NEWTON_STEPS):
@@ -277,7 +386,7 @@ class UndulatoryTail(Tail):
         cos4, sin4 = dx / au, dy / au
         cos5 = (self._SW * cos3 + a - self._AV * cos4) / self._VW
         sin5 = (self._SW * sin3 - self._AV * sin4) / self._VW
-        rates = self._rates(d.theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
+        rates = self._rates(d.fin_angle_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
         theta4 = np.arctan2(sin4, cos4)
         theta5 = np.arctan2(sin5, cos5)
         return self._assemble(d, theta4, au, a, theta5, cos3, sin3, cos5, sin5, rates)
@@ -332,7 +441,7 @@ class UndulatoryTail(Tail):
         rates: tuple[Real, Real, Real, Real],
     ) -> UndulatoryState:
         theta4_dot, au_rate, slider_rate, theta5_dot = rates
-        t3_dot = d.theta3_dot
+        t3_dot = d.fin_angle_dot
         tip_x = self._OS + self._SW * cos3 + self._WT * cos5
         tip_y = self._SW * sin3 + self._WT * sin5
         tip_x_dot = -self._SW * sin3 * t3_dot - self._WT * sin5 * theta5_dot
@@ -342,4 +451,5 @@ class UndulatoryTail(Tail):
             d.theta1, d.theta1_dot, d.theta2, d.theta2_dot, d.theta3, d.theta3_dot,
             tip_x, tip_y, tip_x_dot, tip_y_dot,
             theta4, theta4_dot, au, au_rate, a, slider_rate, theta5, theta5_dot,
+            theta5, theta5_dot,
         )  # fmt: skip

@@ -183,8 +183,12 @@ class KinematicsNode(SuiteNodeBase):
         self.joint_states.name = list(tail.joint_names)
         self._joint_positions = operator.attrgetter(*tail.joint_names)
         self._joint_rates = operator.attrgetter(*tail.joint_rate_names())
+        # TailState carries the fin angle but not its rate (fin_angle_dot is theta3_dot or
+        # theta5_dot, which it has).
         self._copied_fields = tuple(
-            name for name in tail.state_fields if name not in _NESTED_FIELDS
+            name
+            for name in tail.state_fields
+            if name not in _NESTED_FIELDS and name in _TAIL_STATE_FLOATS
         )
         self.tip.header.frame_id = self.frame_id
         self.state.header.frame_id = self.frame_id

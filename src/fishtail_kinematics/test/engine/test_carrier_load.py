@@ -28,8 +28,10 @@ PHASE_RAD = 0.4
 TAILS = [
     OscillatoryTail(OscillatoryGeometry(phase_rad=PHASE_RAD)),
     UndulatoryTail(UndulatoryGeometry(phase_rad=PHASE_RAD)),
+    OscillatoryTail(OscillatoryGeometry(phase_rad=PHASE_RAD)).with_pivot_shift(0.04),
+    UndulatoryTail(UndulatoryGeometry(phase_rad=PHASE_RAD)).with_pivot_shift(-0.03),
 ]
-IDS = ["oscillatory", "undulatory"]
+IDS = ["oscillatory", "undulatory", "oscillatory-shifted", "undulatory-shifted"]
 #: One revolution, evenly (the periodic trapezoid rule: means are exact for trigonometric
 #: polynomials of degree below the sample count).
 REVOLUTION = np.arange(720) * (TWO_PI / 720)
@@ -233,7 +235,7 @@ def test_loads_on_the_tail_through_the_tip_and_fin_ratios(tail):
     # A force along the tail link ST through the pivot does no work: mechanism 1's tip moves
     # perpendicular to ST.
     if tail.fin_joint is None:
-        along = np.stack([np.cos(state.theta3), np.sin(state.theta3)])
+        along = np.stack([np.cos(state.fin_angle), np.sin(state.fin_angle)])
         load = carrier_load(tail, LinkInertia.massless(), phi, 3.0, 0.0, *along)
         np.testing.assert_allclose(load.torque_n_m, 0.0, atol=1e-15)
 

@@ -33,8 +33,11 @@ TAILS = [
     ),
     UndulatoryTail(UndulatoryGeometry()),
     UndulatoryTail(UndulatoryGeometry(pin_offset_m=0.05, phase_rad=-1.1, fin_link_m=0.25)),
+    # S shifted: the tail link keeps its mounting, so its angle is not theta3.
+    OscillatoryTail(OTHER_OSCILLATORY).with_pivot_shift(0.03),
+    UndulatoryTail(UndulatoryGeometry(phase_rad=0.3)).with_pivot_shift(-0.035),
 ]
-IDS = ["report-1", "other-1", "non-monotone-1", "report-2", "other-2"]
+IDS = ["report-1", "other-1", "non-monotone-1", "report-2", "other-2", "shifted-1", "shifted-2"]
 # Differences of positions: first derivatives to ~1e-13 m/rad, second ones to ~1e-10 m/rad^2.
 VELOCITY_TOLERANCE = 1e-11
 ACCELERATION_TOLERANCE = 1e-8

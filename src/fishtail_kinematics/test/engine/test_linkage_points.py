@@ -128,3 +128,39 @@ def test_scalar_states_give_single_points_equal_to_the_array_path(g, tail_class)
         for name, point in single._asdict().items():
             assert point.shape == (2,), name
             np.testing.assert_allclose(point, getattr(batch, name)[index], atol=1e-12)
+
+
+@pytest.mark.parametrize("shift", [-0.03, 0.045])
+def test_a_shifted_pivot_moves_s_and_every_link_keeps_its_length(shift):
+    """S is drawn at (OS + s, 0) and every link keeps its length.
+
+    A stays on the body axis, SW lies at theta3 + bias and the tail link along the fin angle.
+    """
+    oscillatory = OscillatoryTail(OTHER_OSCILLATORY).with_pivot_shift(shift)
+    undulatory = UndulatoryTail(OTHER_UNDULATORY).with_pivot_shift(shift)
+    for tail in (oscillatory, undulatory):
+        g = tail.geometry
+        state = tail.solve(CYCLE, 4.0)
+        p = tail.link_points(state)
+        assert_cardan_couple(p, g, CYCLE)
+        np.testing.assert_array_equal(
+            p.pivot_s, np.broadcast_to([g.pivot_offset_m + shift, 0.0], (721, 2))
+        )
+        assert_length(p.cardan, p.joint_r, g.crank_link_m)
+        assert_length(p.joint_r, p.pivot_s, g.rocker_link_m)
+        np.testing.assert_allclose(p.tip, np.stack((state.tip_x, state.tip_y), axis=-1), atol=0)
+    p = oscillatory.link_points(oscillatory.solve(CYCLE, 4.0))
+    assert_length(p.pivot_s, p.tip, OTHER_OSCILLATORY.tail_link_m)
+    state = undulatory.solve(CYCLE, 4.0)
+    p = undulatory.link_points(state)
+    g = OTHER_UNDULATORY
+    assert_length(p.pivot_s, p.joint_w, g.swing_arm_m)
+    assert_on_segment(p.pin_u, p.pivot_s, p.joint_w, g.swing_arm_m)
+    assert_on_segment(p.pin_u, p.slider_a, p.joint_v, g.slotted_link_m)
+    assert_length(p.joint_v, p.joint_w, g.fin_joint_offset_m)
+    assert_on_segment(p.joint_w, p.joint_v, p.tip, g.fin_link_m)
+    np.testing.assert_array_equal(p.slider_a[:, 1], 0.0)
+    arm = p.joint_w - p.pivot_s
+    np.testing.assert_allclose(
+        np.arctan2(arm[:, 1], arm[:, 0]), state.theta3 + undulatory.swing_bias_rad, atol=1e-12
+    )

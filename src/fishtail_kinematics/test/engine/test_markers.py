@@ -83,3 +83,19 @@ def test_trail_needs_two_points_and_static_markers_do_not_depend_on_the_state():
     for name in STATIC_NAMESPACES:
         np.testing.assert_array_equal(first[name].points, second[name].points)
     assert not np.allclose(first["links"].points, second["links"].points)
+
+
+def test_a_shifted_pivot_is_drawn_where_it_is():
+    g = UndulatoryGeometry()
+    tail = UndulatoryTail(g).with_pivot_shift(0.025)
+    state = tail.solve(0.8, 4.0)
+    specs = by_namespace(build_markers(tail, state))
+    np.testing.assert_allclose(
+        specs["pivots"].points, [[0.0, 0.0], [g.pivot_offset_m + 0.025, 0.0]]
+    )
+    np.testing.assert_allclose(
+        segment_lengths(specs["links"].points),
+        [g.crank_link_m, g.rocker_link_m, g.swing_arm_m, g.slotted_link_m],
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(specs["tail_link"].points[-1], [state.tip_x, state.tip_y])
