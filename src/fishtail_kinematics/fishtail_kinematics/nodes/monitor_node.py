@@ -2,7 +2,7 @@
 
 Topics (relative names):
   sub ``tail/state``       fishtail_msgs/TailState (theta3, the tip's lateral position and
-                           velocity, theta5 for mechanism 2, the stamp), sensor-data QoS
+                           velocity, the fin's body-frame angle, the stamp), sensor-data QoS
   sub ``motor/cmd_speed``  std_msgs/Float64, to know whether beats are expected
   sub ``fish/swimming``    fishtail_msgs/SwimFigures from the swimming simulator, if it runs
                            (transient local): its mean_speed_m_s is the forward speed U of the
@@ -243,10 +243,16 @@ class MonitorNode(SuiteNodeBase):
         now_ns = self.get_clock().now().nanoseconds
         self.last_input_ns = now_ns
         stamp = message.header.stamp
+        # Symmetry is judged on theta3, measured from the swing's current mid-line, not on the
+        # body-frame fin angle: a shifted pivot turns the whole swing by its bias on purpose
+        # (steering), and judged from the body axis every such beat would read as lopsided.
+        # What a shift does change about the swing itself, its uneven timing about the mid-line
+        # (the shifted linkage is no longer the symmetric design), does show in theta3.
         theta3 = message.theta3
         tip_y = message.tip.y
         tip_y_velocity = message.tip_velocity.y
-        fin_angle = getattr(message, _FIN_ANGLE_FIELD.get(message.mechanism, "theta3"))
+        # The swimming figures take the fin's angle to the body axis, which the water sees.
+        fin_angle = getattr(message, _FIN_ANGLE_FIELD.get(message.mechanism, "fin_angle"))
         reason = self.guard.check(
             stamp.sec * 1_000_000_000 + stamp.nanosec,
             message.motor_angle,

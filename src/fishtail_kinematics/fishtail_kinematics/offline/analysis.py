@@ -172,9 +172,22 @@ def tolerances_from(values: Mapping[str, object]) -> tuple[SymmetryTolerances, f
 
 
 def recompute(tail: Tail, recording: Recording) -> LinkageState:
-    """The engine's state for the recording's carrier inputs (one vectorised call)."""
+    """The engine's state for the recording's carrier inputs and pivot shifts.
+
+    One vectorised call per distinct recorded pivot shift (one in all for an unshifted tail).
+    """
+    angle, velocity = recording.carrier_angle, recording.carrier_velocity
+    shifts = recording.pivot_shift_m
     try:
-        return tail.solve(recording.carrier_angle, recording.carrier_velocity)
+        if shifts is None or not np.any(shifts):
+            return tail.solve(angle, velocity)
+        state = tail.empty_state(angle.shape)
+        for shift in np.unique(shifts).tolist():
+            chosen = shifts == shift
+            part = tail.with_pivot_shift(shift).solve(angle[chosen], velocity[chosen])
+            for target, value in zip(state, part, strict=True):
+                np.asarray(target)[chosen] = value
+        return state
     except FishtailKinematicsError as error:
         raise AnalysisError(f"the engine cannot follow the recording: {error}") from None
 

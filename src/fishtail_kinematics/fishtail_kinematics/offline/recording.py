@@ -73,6 +73,8 @@ class Recording:
     monitor_verdicts: list[int] = dataclasses.field(default_factory=list)
     notes: list[str] = dataclasses.field(default_factory=list)
     periodic: bool = False  # CSV: one carrier cycle
+    #: The pivot shift of each tail/state sample, m; None where none was recorded (unshifted).
+    pivot_shift_m: FloatArray | None = None
 
 
 def describe_error(error: BaseException) -> str:
@@ -244,6 +246,7 @@ def _recording_from_messages(
         carrier[_stamp_ns(message)] = (float(message.position[index]), float(velocity))
 
     state: dict[str, FloatArray]
+    pivot_shift: FloatArray | None = None
     if states:
         states = _sorted_unique(states, notes, TAIL_STATE.name)
         stamps = np.array([_stamp_ns(m) for m in states], dtype=np.int64)
@@ -257,6 +260,8 @@ def _recording_from_messages(
         if mechanism is None:
             raise AnalysisError(f"{path}: tail/state has an unknown mechanism code {code}")
         state = _state_arrays(states, TAIL_TYPES[mechanism].state_fields)
+        if hasattr(states[0], "pivot_shift"):
+            pivot_shift = np.array([float(m.pivot_shift) for m in states])
         angle = state["motor_angle"].copy()
         velocity = state["motor_velocity"].copy()
         matched = 0
@@ -304,6 +309,7 @@ def _recording_from_messages(
         carrier_source=source,
         state=state,
         notes=notes,
+        pivot_shift_m=pivot_shift,
     )
 
 
@@ -319,8 +325,17 @@ def _sorted_unique(messages: list[Any], notes: list[str], topic: str) -> list[An
 
 
 def _state_arrays(messages: list[Any], fields: Sequence[str]) -> dict[str, FloatArray]:
-    """The engine fields of TailState messages, one array each."""
-    columns: dict[str, list[float]] = {name: [] for name in fields}
+    """The engine fields that the TailState messages carry, one array each.
+
+    TailState has no ``fin_angle_dot``, and a bag recorded before the pivot shift (with its own
+    older definition) has no ``fin_angle`` either: the analysis recomputes what is missing.
+    """
+    carried = [
+        name
+        for name in fields
+        if hasattr(messages[0], _MESSAGE_FIELD_OF_ENGINE.get(name, (name,))[0])
+    ]
+    columns: dict[str, list[float]] = {name: [] for name in carried}
     for message in messages:
         for name, values in columns.items():
             nested = _MESSAGE_FIELD_OF_ENGINE.get(name)

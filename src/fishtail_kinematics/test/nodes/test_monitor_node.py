@@ -56,6 +56,9 @@ def feed(monitor, tail, seconds: float):
         )
         message.theta3 = float(states.theta3[k])
         message.theta5 = float(states.theta5[k]) if undulatory else math.nan
+        message.pivot_shift = tail.pivot_shift_m
+        message.swing_bias = tail.swing_bias_rad
+        message.fin_angle = float(states.fin_angle[k])
         message.tip.y = float(states.tip_y[k])
         message.tip_velocity.y = float(states.tip_y_dot[k])
         monitor._on_state(message)
@@ -123,3 +126,26 @@ def test_monitor_uses_theta5_for_the_undulatory_tail(monitor):
     assert abs(wrong.mean_thrust_n - expected.mean_thrust_n) > 1e-3 * abs(expected.mean_thrust_n)
     # Only the samples since the last beat's end are kept (less than a beat's worth).
     assert len(monitor.tip_samples) < RATE_HZ * 2 * math.pi / SPEED_RAD_S
+
+
+def test_a_shifted_tail_is_judged_about_its_mid_line_and_swims_with_its_body_frame_angle(monitor):
+    """A shifted tail: symmetry from theta3, the swimming figures from the body-frame angle.
+
+    The swimming figures take the fin's angle from the body axis (theta3 + bias); the beat's
+    statistics stay those of theta3, which is measured from the swing's current mid-line.
+    """
+    tail = OscillatoryTail(OscillatoryGeometry()).with_pivot_shift(0.04)
+    t, s = feed(monitor, tail, 4.0)
+    values = diagnostics_values(monitor)
+    beat = monitor.last_beat
+    expected = swimming_figures(
+        t, s.tip_y, s.tip_y_dot, s.fin_angle, SwimmingParameters(0.3, 0.1), beats=[beat]
+    )
+    assert float(values["lighthill_mean_thrust_n"]) == pytest.approx(
+        expected.mean_thrust_n, rel=1e-4
+    )
+    # The peaks are theta3's, +-half the shifted swing, not shifted by the bias (2.5 degrees).
+    half = tail.drive.swing_range_rad / 2
+    assert beat.positive_peak_rad == pytest.approx(half, abs=1e-3)
+    assert beat.negative_peak_rad == pytest.approx(-half, abs=1e-3)
+    assert tail.swing_bias_rad > math.radians(2.0)

@@ -80,6 +80,7 @@ def tail_state(store, tail, stamp_ns: int, angle: float, velocity: float):
         slider_a_distance=s.slider_a_distance if undulatory else nan,
         slider_a_distance_rate=s.slider_a_distance_rate if undulatory else nan,
         theta5=s.theta5 if undulatory else nan, theta5_dot=s.theta5_dot if undulatory else nan,
+        pivot_shift=tail.pivot_shift_m, swing_bias=tail.swing_bias_rad, fin_angle=s.fin_angle,
         tip=point(x=s.tip_x, y=s.tip_y, z=0.0),
         tip_velocity=vector(x=s.tip_x_dot, y=s.tip_y_dot, z=0.0),
     )  # fmt: skip
@@ -96,9 +97,15 @@ def write_bag(
     drop_joint_every: int = 0,
     reports: int = 0,
     namespace: str = "",
+    pivot_shifts: tuple[float, ...] = (),
 ) -> Path:
-    """A bag like a recording of the suite at constant speed (stamps = receive times + 50 us)."""
-    tail = make_tail(geometry_of(config))
+    """A bag like a recording of the suite at constant speed (stamps = receive times + 50 us).
+
+    ``pivot_shifts``: the pivot moves through these shifts, each held for an equal share of the
+    recording (none: the unshifted tail throughout).
+    """
+    design = make_tail(geometry_of(config))
+    shifted = [design.with_pivot_shift(shift) for shift in pivot_shifts] or [design]
     samples = int(seconds * RATE_HZ)
     with Writer(path, version=9, storage_plugin=STORAGES[storage]) as writer:
         add = writer.add_connection
@@ -121,6 +128,7 @@ def write_bag(
                 data = store.serialize_cdr(message, "sensor_msgs/msg/JointState")
                 writer.write(joints, stamp + 50_000, data)
             if tail_state_topic:
+                tail = shifted[k * len(shifted) // samples]
                 message = tail_state(store, tail, stamp, angle, SPEED_RAD_S)
                 data = store.serialize_cdr(message, "fishtail_msgs/msg/TailState")
                 writer.write(states, stamp + 80_000, data)
@@ -183,6 +191,22 @@ def test_bag_agrees_with_engine_and_is_symmetric(store, tmp_path, capsys, storag
         expected.add("theta3_theta5.png")
     assert names == expected
     assert all((figures / name).stat().st_size > 10_000 for name in names)
+
+
+@pytest.mark.parametrize("mechanism", ["oscillatory", "undulatory"])
+def test_a_recording_with_the_pivot_shifted_is_recomputed_with_its_shifts(
+    store, tmp_path, mechanism
+):
+    bag = write_bag(
+        store, tmp_path / "bag", config=CONFIG / f"{mechanism}.yaml", seconds=3.0,
+        pivot_shifts=(0.0, 0.02, -0.015),
+    )  # fmt: skip
+    report = analysis.analyse(bag, output_dir=tmp_path / "f")
+    shifts = report.recording.pivot_shift_m
+    assert shifts is not None and sorted(set(shifts.tolist())) == [-0.015, 0.0, 0.02]
+    d = report.disagreement
+    assert d.worst < 1e-12, d.per_field
+    assert "fin_angle" in d.per_field and "tip_x" in d.per_field
 
 
 def test_table_is_the_monitors_statistics(store, tmp_path):
