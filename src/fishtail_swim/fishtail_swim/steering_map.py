@@ -11,7 +11,8 @@ Means (each satisfies :class:`fishtail_swim.pilot.Steering`):
 * :class:`ModulationChannel` (``"modulation"``, one motor): the input is a signed depth s in
   [-0.9, 0.9]: s >= 0 runs the carrier at depth s with the phase that turns left most strongly,
   s < 0 at depth -s with the phase that turns right most strongly (both found by a phase scan).
-* :class:`PivotChannel` (``"pivot"``, a second actuator): the input is the pivot shift [m].
+* :class:`PivotChannel` (``"pivot"``, a second actuator): the input is the pivot shift [m] across
+  the actuator's stroke (±30 mm by default), the carrier unmodulated.
 
 Between the tabulated inputs the figures are interpolated linearly, both ways (the input for a
 wanted r̄/f is the inverse of the same broken line, so ``command`` and ``yaw_per_beat_at`` agree).
@@ -51,6 +52,7 @@ from fishtail_swim.dynamics.steady_turn import (
     StrongestPhases,
     TurnSettings,
     modulation_turns,
+    pivot_shift_turns,
     strongest_phases,
 )
 from fishtail_swim.pilot import SteeringCommand
@@ -64,6 +66,12 @@ PHASE_COUNT = 24
 #: depth, so the depths crowd there (:func:`signed_depths`); with 16 the broken line is within
 #: 2e-3 rad a beat of a 61-depth table for both tails (10 evenly spaced: 2e-2).
 DEPTH_COUNT = 16
+#: The pivot actuator's reach each way from the design position of S [m], and the table's rows.
+PIVOT_STROKE_M = 0.03
+PIVOT_COUNT = 13
+#: The fraction of the way to a limit of ``Tail.pivot_shift_range`` a table may reach: at the
+#: limit the linkage cannot assemble over the whole stroke.
+PIVOT_REACH = 0.95
 
 
 def signed_depths(max_depth: float = MAX_DEPTH, count: int = DEPTH_COUNT) -> FloatArray:
@@ -299,10 +307,49 @@ def _shifted(progress: Callable[[int], None], done: int) -> Callable[[int], None
     return lambda count: progress(done + count)
 
 
+def pivot_shifts(
+    tail: Tail, stroke_m: float = PIVOT_STROKE_M, count: int = PIVOT_COUNT
+) -> FloatArray:
+    """``count`` shifts evenly across ``stroke_m`` each way, kept within reach of the linkage."""
+    low, high = tail.pivot_shift_range()
+    if not (stroke_m > 0.0 and count >= 2):
+        raise SwimInputError(
+            f"a pivot table needs a stroke > 0 and 2 or more shifts, got {stroke_m!r}, {count}"
+        )
+    return np.linspace(max(-stroke_m, PIVOT_REACH * low), min(stroke_m, PIVOT_REACH * high), count)
+
+
+class PivotTurns(NamedTuple):
+    """The runs behind the pivot table, at one carrier speed (unmodulated)."""
+
+    #: The reference: the pivot at the design position (one fish).
+    unshifted: SteadyTurn
+    shifts_m: FloatArray
+    #: The swing's mid-line from the body axis at each shift (the engine's ``swing_bias_rad``).
+    swing_bias_rad: FloatArray
+    table: SteadyTurn
+
+
+def pivot_study(
+    tail: Tail,
+    fish: FishParameters,
+    carrier_speed_rad_s: float,
+    shifts_m: FloatArray,
+    settings: TurnSettings = DEFAULT_SETTINGS,
+    progress: Callable[[int], None] | None = None,
+) -> PivotTurns:
+    """Every pivot shift and the unshifted tail, one batch."""
+    shifts = np.concatenate([[0.0], shifts_m])
+    both = pivot_shift_turns(tail, fish, carrier_speed_rad_s, shifts, settings, progress)
+    bias = np.array([tail.with_pivot_shift(float(shift)).swing_bias_rad for shift in shifts_m])
+    return PivotTurns(both.take([0]), shifts_m, bias, both.take(np.arange(1, shifts.size)))
+
+
 class SteeringMap(NamedTuple):
-    """Every means of steering a tail has, for a pilot."""
+    """Both means of steering a tail, for a pilot (each a :class:`fishtail_swim.pilot.Steering`)."""
 
     modulation: ModulationChannel
+    pivot: PivotChannel
     #: Ū/f [m] swimming with the carrier unmodulated and the pivot unshifted (the pilot's
     #: speed feed-forward).
     straight_distance_per_beat_m: float
@@ -313,7 +360,7 @@ class SteeringMap(NamedTuple):
 
     def means(self, name: str) -> SteeringChannel:
         """The means called ``name``; ValueError naming the available ones otherwise."""
-        available = {channel.name: channel for channel in (self.modulation,)}
+        available = {channel.name: channel for channel in (self.modulation, self.pivot)}
         if name not in available:
             raise ValueError(f"no steering means {name!r}: available {sorted(available)}")
         return available[name]
@@ -325,13 +372,16 @@ def build_steering_map(
     max_depth: float = MAX_DEPTH,
     depth_count: int = DEPTH_COUNT,
     phase_count: int = PHASE_COUNT,
+    pivot_stroke_m: float = PIVOT_STROKE_M,
+    pivot_count: int = PIVOT_COUNT,
     settings: TurnSettings = DEFAULT_SETTINGS,
 ) -> SteeringMap:
     """Run the steady turns of ``tail`` on ``fish`` and tabulate them per beat.
 
-    Two batches of 25 and 31 fish, 50 beats at 64 steps a beat: measured 0.3 s for either
-    mechanism with the compiled integrator on a busy 2-core machine (plus about 5 s the first
-    time a machine compiles the integrator; without numba, about 2 minutes).
+    Three batches (25, 31 and 14 fish) of 60 beats at 64 steps a beat: measured 0.4 s for
+    mechanism 1 and 0.6 s for mechanism 2 with the compiled integrator on a busy 2-core
+    machine (plus about 5 s the first time a machine compiles the integrator; without numba,
+    a few minutes).
     """
     started = time.perf_counter()
     study = modulation_study(
@@ -342,8 +392,13 @@ def build_steering_map(
         study.signed_depth, study.table.yaw_per_beat_rad, study.table.distance_per_beat_m,
         study.strongest.left_rad, study.strongest.right_rad,
     )  # fmt: skip
+    pivot = pivot_study(
+        tail, fish, MAP_CARRIER_SPEED_RAD_S, pivot_shifts(tail, pivot_stroke_m, pivot_count),
+        settings,
+    )  # fmt: skip
     return SteeringMap(
         modulation,
+        PivotChannel(pivot.shifts_m, pivot.table.yaw_per_beat_rad, pivot.table.distance_per_beat_m),
         float(study.unmodulated.distance_per_beat_m[0]),
         float(study.unmodulated.yaw_per_beat_rad[0]),
         time.perf_counter() - started,

@@ -17,6 +17,7 @@ from fishtail_swim.dynamics.steady_turn import (
     TurnSettings,
     modulated_drive,
     modulation_turns,
+    pivot_shift_turns,
     steady_turn,
     strongest_phases,
 )
@@ -125,12 +126,37 @@ def test_a_modulated_antisymmetric_sinusoid_turns_towards_its_slow_extreme_and_m
     yaw = turns.yaw_per_beat_rad
     assert abs(yaw[0]) < 1e-5
     assert yaw[1] > 0.05
+    assert turns.mean_fin_angle_rad[1] > 0.0  # the dwell: a mean deflection to the left
     np.testing.assert_allclose(yaw[2], -yaw[1], rtol=1e-4)
     np.testing.assert_allclose(yaw[4], -yaw[3], rtol=1e-4)
     # The mirror image runs half a revolution out of step with its twin, so its beat ends fall at
     # another point of the wiggle: the chord between them (Ū) differs by about the wiggle over
     # the radius (0.27 % here, at 2.1 m), where the mean yaw rate over whole beats does not.
     np.testing.assert_allclose(turns.speed_m_s[2], turns.speed_m_s[1], rtol=1e-2)
+
+
+def test_pivot_shift_zero_is_the_unshifted_tail():
+    shifted = pivot_shift_turns(UNDULATORY, FISH, 4.0, [0.0], SHORT)
+    plain = steady_turn(
+        EngineTailDrive(UNDULATORY, constant_carrier_speed(4.0)), FISH, 1, 2.0 * math.pi / 4.0,
+        SHORT,
+    )  # fmt: skip
+    np.testing.assert_allclose(shifted.yaw_rate_rad_s, plain.yaw_rate_rad_s, rtol=1e-10)
+    np.testing.assert_allclose(shifted.speed_m_s, plain.speed_m_s, rtol=1e-12)
+
+
+@pytest.mark.parametrize("tail", [OSCILLATORY, UNDULATORY], ids=lambda tail: tail.name)
+def test_a_pivot_shift_biasing_the_fin_left_turns_the_fish_left(tail):
+    # The spec's rudder paragraph: a fin deflected to the left (theta > 0) turns the fish left.
+    # Shifting S towards the tail turns the swing's mid-line to the left, more with more shift.
+    shifts = np.array([0.0, 0.01, 0.02, 0.03])
+    bias = np.array([tail.with_pivot_shift(shift).swing_bias_rad for shift in shifts])
+    assert bias[0] == 0.0 and np.all(np.diff(bias) > 0.0)
+    turns = pivot_shift_turns(tail, FISH, 2.0 * math.pi, shifts)
+    assert turns.transient_beats < TurnSettings().beats
+    assert np.all(np.diff(turns.mean_fin_angle_rad) > 0.0)
+    assert np.all(np.diff(turns.yaw_per_beat_rad) > 0.0)
+    assert turns.yaw_per_beat_rad[-1] > 0.0 > turns.yaw_per_beat_rad[0]
 
 
 def test_positive_yaw_rate_means_the_heading_grows_and_the_path_turns_counter_clockwise():

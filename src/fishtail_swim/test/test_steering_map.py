@@ -124,6 +124,19 @@ def test_the_map_holds_at_another_carrier_speed(built):
     )  # fmt: skip
 
 
+def test_the_pivot_channel_steers_through_straight_within_the_stroke(built):
+    tail, steering = built
+    pivot = steering.pivot
+    low, high = pivot.input_range
+    assert -0.03 - 1e-12 <= low < pivot.straight_input < high <= 0.03 + 1e-12
+    assert pivot.yaw_per_beat_at(pivot.straight_input) == pytest.approx(0.0, abs=1e-12)
+    left = pivot.command(1.0)
+    assert (left.depth, left.phase_rad) == (0.0, 0.0)
+    assert left.yaw_per_beat_rad == pivot.yaw_per_beat_range_rad[1] > 0.0
+    assert low <= left.pivot_shift_m <= high
+    assert tail.pivot_shift_range()[0] < low
+
+
 def test_a_pilot_flies_on_the_map(built):
     _, steering = built
     settings = PilotSettings(steering.straight_distance_per_beat_m, max_carrier_speed_rad_s=20.0)
@@ -133,5 +146,6 @@ def test_a_pilot_flies_on_the_map(built):
     assert command.carrier.depth > 0.0
     assert command.carrier.phase_rad == steering.modulation.left_phase_rad
     assert steering.means("modulation") is steering.modulation
+    assert steering.means("pivot") is steering.pivot
     with pytest.raises(ValueError, match="available"):
         steering.means("rudder")

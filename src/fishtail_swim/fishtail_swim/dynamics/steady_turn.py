@@ -18,15 +18,16 @@ mean speed Ū, the signed turning radius, and the tail power. Every force is qua
 velocity, so r̄/f and Ū/f, hence the radius, are the same at every beat frequency f (a test
 checks it at two carrier speeds).
 
-How long the transient lasts is measured, not assumed: :attr:`SteadyTurn.transient_beats` is the
-beat from which every fish's heading change per beat stays within :data:`SETTLED_RAD_PER_BEAT`
-of its last beat's. For the report's tails with the default fish and 64 steps a beat it is about
-20 beats for mechanism 2 and about 35 for mechanism 1 (its slowest fish is the unmodulated one);
-:data:`TURN_BEATS` leaves a margin.
+How long the transient lasts is measured, not assumed: :attr:`SteadyTurn.transient_beats` counts
+the beats before every fish's heading change per beat stays within :data:`SETTLED_RAD_PER_BEAT` of
+its last beat's. For the report's tails with the default fish and 64 steps a beat it is 12 to 22
+beats for mechanism 2 and 27 to 47 for mechanism 1 (its slowest fish are those that swim nearly
+straight, where the yaw is least damped); :data:`TURN_BEATS` leaves a margin.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
@@ -48,10 +49,10 @@ from fishtail_swim.dynamics.tail_drive import (
     constant_carrier_speed,
 )
 
-#: Beats from rest before the figures are taken (the last :data:`AVERAGE_BEATS` of them).
-#: Measured: mechanism 1's slowest fish settles to 1e-4 rad a beat in about 35 beats, and the
-#: remaining drift falls about tenfold every 5 beats.
-TURN_BEATS = 50
+#: Beats from rest, the figures taken over the last :data:`AVERAGE_BEATS` of them. Measured:
+#: mechanism 1's slowest fish settle to 1e-4 rad a beat in up to 47 beats, and what is left of
+#: the transient falls about tenfold every 5 beats.
+TURN_BEATS = 60
 #: RK4 steps a beat. At depth 0.9 the carrier peaks at 4.4 times its mean speed; 32 steps leave
 #: errors of 2e-3 rad a beat in the heading change, 64 steps 3e-5 (against 128).
 TURN_STEPS_PER_BEAT = 64
@@ -81,6 +82,10 @@ class SteadyTurn(NamedTuple):
     speed_m_s: FloatArray
     turning_radius_m: FloatArray
     tail_power_w: FloatArray
+    #: The fin's angle to the body axis, averaged over time (> 0 to the left): the rudder
+    #: deflection the steering gives, which the spec's rudder paragraph says turns the fish
+    #: its way. Not the mid-point of the swing's extremes: the fin may dwell on one side.
+    mean_fin_angle_rad: FloatArray
     #: The beat from which every fish's heading change per beat is within SETTLED_RAD_PER_BEAT
     #: of its last beat's (the run's beats if it never settles).
     transient_beats: int
@@ -104,7 +109,10 @@ class SteadyTurn(NamedTuple):
         return self._replace(**{name: getattr(self, name)[index] for name in _PER_FISH})
 
 
-_PER_FISH = ("beat_frequency_hz", "yaw_rate_rad_s", "speed_m_s", "turning_radius_m", "tail_power_w")
+_PER_FISH = (
+    "beat_frequency_hz", "yaw_rate_rad_s", "speed_m_s", "turning_radius_m", "tail_power_w",
+    "mean_fin_angle_rad",
+)  # fmt: skip
 
 
 class PerFishDrive:
@@ -196,11 +204,13 @@ def steady_turn(
     last = settings.average_beats * settings.steps_per_beat + 1
     window = Trajectory(trajectory.time_s[-last:], trajectory.state[-last:])
     tail = tail_figures(model, window, beat_period_s, settings.average_beats)
+    fin = np.broadcast_to(drive.sample(window.time_s[:, None]).fin_angle, window.state.shape[:2])
+    mean_fin = np.trapezoid(fin, window.time_s, axis=0) / (window.time_s[-1] - window.time_s[0])
     transient, drift = _transient(trajectory, settings.steps_per_beat)
     frequency = np.full(fish_count, 1.0 / beat_period_s)
     return SteadyTurn(
         frequency, means.mean_yaw_rate_rad_s, means.mean_speed_m_s, means.turning_radius_m,
-        tail.tail_power_w, transient, drift,
+        tail.tail_power_w, mean_fin, transient, drift,
     )  # fmt: skip
 
 
@@ -214,6 +224,13 @@ def _transient(trajectory: Trajectory, steps_per_beat: int) -> tuple[int, float]
     return transient, drift
 
 
+def beat_period(carrier_speed_rad_s: float) -> float:
+    """2 pi / Omega: a revolution of the carrier, modulated or not (SwimInputError unless > 0)."""
+    if not (math.isfinite(carrier_speed_rad_s) and carrier_speed_rad_s > 0.0):
+        raise SwimInputError(f"carrier speed must be > 0 rad/s, got {carrier_speed_rad_s!r}")
+    return 2.0 * math.pi / carrier_speed_rad_s
+
+
 def modulation_turns(
     tail: Tail,
     fish: FishParameters,
@@ -225,8 +242,9 @@ def modulation_turns(
 ) -> SteadyTurn:
     """The steady turn at each (depth, phase) pair (broadcast together), one batch.
 
-    Raises the engine's CarrierProfileError for a depth outside [0, 0.9] or a bad speed.
+    Raises the engine's CarrierProfileError for a depth outside [0, 0.9].
     """
+    period = beat_period(mean_speed_rad_s)
     depth, phase = np.broadcast_arrays(
         np.atleast_1d(np.asarray(depths, dtype=float)),
         np.atleast_1d(np.asarray(phases_rad, dtype=float)),
@@ -236,8 +254,26 @@ def modulation_turns(
         for d, p in zip(depth, phase, strict=True)
     ]
     drive = modulated_drive(tail, profiles)
-    period = 2.0 * np.pi / mean_speed_rad_s
     return steady_turn(drive, fish, depth.size, period, settings, progress)
+
+
+def pivot_shift_turns(
+    tail: Tail,
+    fish: FishParameters,
+    carrier_speed_rad_s: float,
+    pivot_shifts_m: npt.ArrayLike,
+    settings: TurnSettings = DEFAULT_SETTINGS,
+    progress: Callable[[int], None] | None = None,
+) -> SteadyTurn:
+    """The steady turn at each pivot shift (the carrier at constant speed), one batch.
+
+    Raises the engine's error for a shift outside ``tail.pivot_shift_range()``.
+    """
+    period = beat_period(carrier_speed_rad_s)
+    shifts = np.atleast_1d(np.asarray(pivot_shifts_m, dtype=float))
+    tails = [tail.with_pivot_shift(float(shift)) for shift in shifts]
+    drive = constant_speed_drive(tails, carrier_speed_rad_s)
+    return steady_turn(drive, fish, shifts.size, period, settings, progress)
 
 
 class StrongestPhases(NamedTuple):
