@@ -1,4 +1,4 @@
-"""``fishtail-swim``: steady swimming over carrier speeds, runs to CSV, figures, GIF, motor sizing.
+"""``fishtail-swim``: steady swimming, runs to CSV, figures, GIF, motor sizing, steady turns.
 
 The tail comes from a kinematics parameter file (``--config config/oscillatory.yaml``), the fish
 from ``--fish`` (``config/fish.yaml``); flags named after the parameters override both. Bad input
@@ -51,6 +51,7 @@ from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
 from fishtail_swim.offline.tables import Column, write_table
 from fishtail_swim.offline.time_run import SUMMARY_BEATS, run_figures, run_from_rest
+from fishtail_swim.offline.turning import add_turning_parser, run_turning
 
 DEFAULT_SPEEDS = "2,4,8,12,16"
 #: Most carrier speeds one steady table computes (one batch).
@@ -167,6 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     _add_fit_parser(commands, swimmer)
     _add_motor_parser(commands, swimmer)
+    add_turning_parser(commands, swimmer)
     return parser
 
 
@@ -406,6 +408,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "animate": run_animate,
         "fit": run_fit,
         "motor": run_motor,
+        "turning": run_turning,
     }[arguments.command]
     try:
         command(arguments, sys.stdout)
