@@ -10,9 +10,9 @@ and forth once a carrier revolution), so the pilot steers by their means over th
 * **Speed**: feed-forward from the steady-speed map (the cruising speed is proportional to the
   beat frequency: U = (U/f) f, the spec's time-scaling law) plus proportional-integral feedback on
   the beat-mean surge speed, with the integral frozen while the carrier is at its limit.
-* **Heading**: the yaw-rate demand is the commanded yaw rate plus a proportional term on the error
-  between a heading reference (the command integrated over time, or the goal's bearing) and the
-  beat-mean heading. The steering means (:class:`Steering`) turns the demand, as yaw per beat
+* **Heading**: the demand, as yaw per beat, is the commanded yaw rate over the beat frequency plus
+  a proportional term on the error between a heading reference (the command integrated over
+  time, or the goal's bearing) and the beat-mean heading. The steering means (:class:`Steering`) turns the demand, as yaw per beat
   (r / f, which depends on the geometry only), into its actuator's input.
 * **Goal**: head for it, slow down within ``slow_down_distance_m``, stop the carrier within
   ``goal_tolerance_m``.
@@ -127,14 +127,15 @@ class PilotSettings:
     speed_gain: float = 2.0
     #: Integral action of the speed loop (1/s): the fraction of the error added per second.
     speed_integral_per_s: float = 0.2
-    #: Heading error to yaw-rate demand (1/s).
-    heading_gain_per_s: float = 0.5
+    #: Heading error to yaw demand per beat (rad per beat per rad of error). Per beat, not per
+    #: second: the fish answers its steering within a beat or two at any beat frequency.
+    heading_gain_per_beat: float = 3.0
     #: Speed towards a goal (m/s); the carrier's limit caps it.
     cruise_speed_m_s: float = 0.3
     #: Within this distance of a goal the speed falls in proportion to the distance (m).
     slow_down_distance_m: float = 1.0
     #: A goal this close is reached: the carrier stops (m).
-    goal_tolerance_m: float = 0.15
+    goal_tolerance_m: float = 0.2
     #: The beat-mean window before the carrier turns (s); after that, one beat.
     idle_window_s: float = 1.0
 
@@ -148,8 +149,8 @@ CONTROL_PARAMETERS: tuple[ParameterSpec, ...] = (
                   0.0, 20.0),
     ParameterSpec("speed_integral_per_s", _DEFAULTS.speed_integral_per_s,
                   "integral action of the speed loop", "1/s", 0.0, 10.0),
-    ParameterSpec("heading_gain_per_s", _DEFAULTS.heading_gain_per_s,
-                  "yaw-rate demand per radian of heading error", "1/s", 0.0, 10.0),
+    ParameterSpec("heading_gain_per_beat", _DEFAULTS.heading_gain_per_beat,
+                  "yaw per beat asked per radian of heading error", "1/beat", 0.0, 10.0),
     ParameterSpec("cruise_speed_m_s", _DEFAULTS.cruise_speed_m_s,
                   "speed towards a goal", "m/s", 0.0, 10.0),
     ParameterSpec("slow_down_distance_m", _DEFAULTS.slow_down_distance_m,
@@ -163,6 +164,13 @@ CONTROL_PARAMETERS: tuple[ParameterSpec, ...] = (
 )  # fmt: skip
 #: A goal this close is reached (the console's route uses it too).
 GOAL_TOLERANCE = next(spec for spec in CONTROL_PARAMETERS if spec.name == "goal_tolerance_m")
+
+
+#: The lowest carrier speed while a speed is wanted, as a share of the feed-forward's.
+MIN_FEED_FORWARD_SHARE = 0.5
+#: A goal closer than this many tightest turning radii to the turning circle's centre is inside
+#: it: the fish tracks its beat-mean heading with a lag, so the circle it swims is wider.
+GOAL_CIRCLE_MARGIN = 1.3
 
 
 class Mode(enum.Enum):
@@ -306,10 +314,24 @@ class Pilot:
             1.0, distance / settings.slow_down_distance_m
         )
         bearing = math.atan2(self.goal[1] - self.position_m[1], self.goal[0] - self.position_m[0])
+        error = wrap_angle(bearing - self.mean_heading_rad)
+        if self._inside_turning_circle(error):
+            # Turning towards it would circle the goal for ever: swim straight on until the
+            # goal lies outside the tightest circle on that side, then turn.
+            error = 0.0
         # The reference is the bearing, unwrapped next to the mean heading.
-        self._heading_reference = self.mean_heading_rad + wrap_angle(
-            bearing - self.mean_heading_rad
-        )
+        self._heading_reference = self.mean_heading_rad + error
+
+    def _inside_turning_circle(self, bearing_error_rad: float) -> bool:
+        assert self.goal is not None
+        radius = GOAL_CIRCLE_MARGIN * self.min_turning_radius_m(bearing_error_rad)
+        if not math.isfinite(radius) or not math.isfinite(self.mean_heading_rad):
+            return False
+        side = math.copysign(1.0, bearing_error_rad)
+        heading = self.mean_heading_rad
+        centre_x = self.position_m[0] - side * radius * math.sin(heading)
+        centre_y = self.position_m[1] + side * radius * math.cos(heading)
+        return math.hypot(self.goal[0] - centre_x, self.goal[1] - centre_y) < radius
 
     def _control(self, dt: float) -> PilotCommand:
         settings = self.settings
@@ -331,22 +353,27 @@ class Pilot:
         heading_error = 0.0
         if self._heading_reference is not None and math.isfinite(self.mean_heading_rad):
             heading_error = self._heading_reference - self.mean_heading_rad
-        yaw_demand = self.yaw_rate_command_rad_s + settings.heading_gain_per_s * heading_error
         low, high = self.steering.yaw_per_beat_range_rad
         beat_hz = max(mean_speed, 0.0) / TWO_PI
-        steering = self.steering.command(yaw_demand / beat_hz if beat_hz > 0.0 else 0.0)
+        yaw_per_beat = settings.heading_gain_per_beat * heading_error
+        if beat_hz > 0.0:
+            yaw_per_beat += self.yaw_rate_command_rad_s / beat_hz
+        steering = self.steering.command(yaw_per_beat if beat_hz > 0.0 else 0.0)
         # The profile's peak must stay within the carrier's top speed: a deep modulation costs
         # mean speed.
         depth = steering.depth
         ceiling = settings.max_carrier_speed_rad_s * math.sqrt((1.0 - depth) / (1.0 + depth))
+        # The carrier never drops below half the feed-forward while a speed is wanted: a stopped
+        # tail cannot steer, and, held off the axis, it is a rudder that turns the gliding fish.
+        floor = min(MIN_FEED_FORWARD_SHARE * slope * wanted, ceiling)
         pushing_up = mean_speed >= ceiling and error > 0.0
-        pushing_down = mean_speed <= 0.0 and error < 0.0
+        pushing_down = mean_speed <= floor and error < 0.0
         if not (pushing_up or pushing_down):
             # Integrate only while the carrier can still act on the error (no wind-up).
             self._integral_rad_s += (
                 settings.speed_integral_per_s * settings.speed_gain * slope * (error * dt)
             )
-        mean_speed = min(max(mean_speed, 0.0), ceiling)
+        mean_speed = min(max(mean_speed, floor), ceiling)
         wanted_yaw = self.yaw_rate_command_rad_s
         beat_hz_wanted = slope * wanted / TWO_PI
         if wanted_yaw != 0.0:

@@ -24,11 +24,18 @@ line can name the choices without loading them.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
 import numpy as np
 import numpy.typing as npt
 
-from fishtail_common.parameters import ParameterSpec
+from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_swim.pilot import SteeringCommand
+
+if TYPE_CHECKING:
+    from fishtail_kinematics.engine.mechanisms import Tail
+    from fishtail_swim.dynamics.fish import FishParameters
 
 MODULATION_STEERING = "modulation"
 PIVOT_STEERING = "pivot"
@@ -124,3 +131,71 @@ class PivotSteering(SteeringTable):
         """The shift for ``yaw_per_beat_rad``; the carrier unmodulated."""
         shift, achieved = self.input_for(yaw_per_beat_rad)
         return SteeringCommand(0.0, 0.0, shift, achieved)
+
+
+#: The carrier speed the tables are measured at: any serves (r/f and U/f do not depend on it);
+#: 2 pi rad/s is one beat a second.
+MAP_CARRIER_SPEED_RAD_S = 2.0 * np.pi
+#: The phase scan that finds the strongest phases each way, at this depth.
+PHASE_SCAN_COUNT = 12
+PHASE_SCAN_DEPTH = 0.5
+#: The depths of the table each way (with depth 0 between them).
+TABLE_DEPTHS = (0.15, 0.3, 0.45, 0.6, 0.75, 0.9)
+#: The pivot table's shifts, across the stroke.
+PIVOT_TABLE_POINTS = 9
+
+
+def modulation_steering(tail: Tail, fish: FishParameters) -> tuple[ModulationSteering, float]:
+    """One-motor steering measured for ``tail`` and ``fish``, and U/f [m] unmodulated.
+
+    Two batches of the steady-turn simulation: a phase scan at :data:`PHASE_SCAN_DEPTH`, then
+    every table depth at the strongest phase each way, with depth 0.
+    """
+    from fishtail_swim.dynamics.steady_turn import modulation_turns, strongest_phases
+
+    phases = np.arange(PHASE_SCAN_COUNT) * (2.0 * np.pi / PHASE_SCAN_COUNT)
+    scan = modulation_turns(tail, fish, MAP_CARRIER_SPEED_RAD_S, PHASE_SCAN_DEPTH, phases)
+    strongest = strongest_phases(phases, scan.yaw_per_beat_rad)
+    depths = np.asarray(TABLE_DEPTHS)
+    batch_depths = np.concatenate([depths[::-1], [0.0], depths])
+    batch_phases = np.concatenate(
+        [np.full(depths.size, strongest.right_rad), [0.0], np.full(depths.size, strongest.left_rad)]
+    )
+    turns = modulation_turns(tail, fish, MAP_CARRIER_SPEED_RAD_S, batch_depths, batch_phases)
+    signed_depths = np.concatenate([-depths[::-1], [0.0], depths])
+    steering = ModulationSteering(
+        signed_depths, turns.yaw_per_beat_rad, strongest.left_rad, strongest.right_rad
+    )
+    return steering, float(turns.distance_per_beat_m[depths.size])
+
+
+def pivot_steering(
+    tail: Tail, fish: FishParameters, stroke_m: float
+) -> tuple[PivotSteering, float]:
+    """Pivot-shift steering across ``stroke_m`` each way (within the shifts the linkage allows)."""
+    from fishtail_swim.dynamics.steady_turn import pivot_shift_turns
+
+    low, high = tail.pivot_shift_range()
+    # The range is open: keep a millimetre off its ends.
+    reach_low, reach_high = max(-stroke_m, low + 1e-3), min(stroke_m, high - 1e-3)
+    if not reach_low < 0.0 < reach_high:
+        raise ValueError(
+            f"pivot_stroke_m = {stroke_m:g} m: the linkage assembles for shifts in "
+            f"({low:.4g}, {high:.4g}) m only"
+        )
+    shifts = np.unique(
+        np.concatenate([np.linspace(reach_low, reach_high, PIVOT_TABLE_POINTS), [0.0]])
+    )
+    turns = pivot_shift_turns(tail, fish, MAP_CARRIER_SPEED_RAD_S, shifts)
+    neutral = int(np.flatnonzero(shifts == 0.0)[0])
+    return PivotSteering(shifts, turns.yaw_per_beat_rad), float(turns.distance_per_beat_m[neutral])
+
+
+def steering_from_values(
+    values: Mapping[str, ParameterValue], tail: Tail, fish: FishParameters
+) -> tuple[SteeringTable, float]:
+    """The steering means the parameters name, measured for ``tail`` and ``fish``; and U/f [m]."""
+    if values.get(STEERING.name, STEERING.default) == PIVOT_STEERING:
+        stroke = float(values.get(PIVOT_STROKE.name, PIVOT_STROKE.default))
+        return pivot_steering(tail, fish, stroke)
+    return modulation_steering(tail, fish)

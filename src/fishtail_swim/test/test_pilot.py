@@ -124,7 +124,8 @@ def test_near_a_goal_the_pilot_slows_down_in_proportion_to_the_distance():
 
 
 def test_a_goal_to_the_left_asks_for_a_left_turn():
-    fish_pilot = pilot()
+    # Steering tight enough (0.5 rad a beat: a 0.5 m circle) for a goal 3 m to the side.
+    fish_pilot = pilot(ModulationSteering([-0.9, 0.0, 0.9], [-0.5, 0.0, 0.5], 1.0, 4.0))
     fish_pilot.set_goal(0.0, 3.0)
     command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0)
     assert command.carrier.depth > 0.0 and command.carrier.phase_rad == pytest.approx(1.0)
