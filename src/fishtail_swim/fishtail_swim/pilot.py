@@ -12,8 +12,8 @@ and forth once a carrier revolution), so the pilot steers by their means over th
   the beat-mean surge speed, with the integral frozen while the carrier is at its limit.
 * **Heading**: the demand, as yaw per beat, is the commanded yaw rate over the beat frequency plus
   a proportional term on the error between a heading reference (the command integrated over
-  time, or the goal's bearing) and the beat-mean heading. The steering means (:class:`Steering`) turns the demand, as yaw per beat
-  (r / f, which depends on the geometry only), into its actuator's input.
+  time, or the goal's bearing) and the beat-mean heading. The steering means (:class:`Steering`)
+  turns the demand (r / f depends on the geometry only) into its actuator's input.
 * **Goal**: head for it, slow down within ``slow_down_distance_m``, stop the carrier within
   ``goal_tolerance_m``.
 * **Limits**: a speed or a yaw rate beyond what the fish can do is flown at the limit and reported

@@ -8,15 +8,20 @@ import numpy as np
 import pytest
 
 from fishtail_swim.pilot import BeatAverage, Mode, Pilot, PilotSettings, wrap_angle
-from fishtail_swim.steering import ModulationSteering, PivotSteering
+from fishtail_swim.steering_map import ModulationChannel, PivotChannel
 
 SPEED_PER_BEAT_M = 0.25
 TOP_CARRIER_RAD_S = 20.0
 
 
-def modulation() -> ModulationSteering:
-    # A made-up table, linear in the signed depth: 0.01 rad a beat at full depth each way.
-    return ModulationSteering([-0.9, 0.0, 0.9], [-0.01, 0.0, 0.01], 1.0, 1.0 + math.pi)
+DISTANCE = [SPEED_PER_BEAT_M] * 3
+
+
+def modulation(yaw_per_beat: float = 0.01) -> ModulationChannel:
+    # A made-up table, linear in the signed depth: yaw_per_beat rad a beat at full depth.
+    return ModulationChannel(
+        [-0.9, 0.0, 0.9], [-yaw_per_beat, 0.0, yaw_per_beat], DISTANCE, 1.0, 1.0 + math.pi
+    )
 
 
 def pilot(steering=None, **settings) -> Pilot:
@@ -125,14 +130,14 @@ def test_near_a_goal_the_pilot_slows_down_in_proportion_to_the_distance():
 
 def test_a_goal_to_the_left_asks_for_a_left_turn():
     # Steering tight enough (0.5 rad a beat: a 0.5 m circle) for a goal 3 m to the side.
-    fish_pilot = pilot(ModulationSteering([-0.9, 0.0, 0.9], [-0.5, 0.0, 0.5], 1.0, 4.0))
+    fish_pilot = pilot(modulation(0.5))
     fish_pilot.set_goal(0.0, 3.0)
     command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0)
     assert command.carrier.depth > 0.0 and command.carrier.phase_rad == pytest.approx(1.0)
 
 
 def test_stop_stops_the_carrier_and_holds_the_pivot():
-    steering = PivotSteering([-0.03, 0.0, 0.03], [0.02, 0.0, -0.02])
+    steering = PivotChannel([-0.03, 0.0, 0.03], [0.02, 0.0, -0.02], DISTANCE)
     fish_pilot = pilot(steering)
     fish_pilot.set_velocity(0.2, 0.001)
     moving = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.2)
@@ -141,13 +146,3 @@ def test_stop_stops_the_carrier_and_holds_the_pivot():
     assert stopped.carrier.mean_speed_rad_s == 0.0
     assert stopped.pivot_shift_m == moving.pivot_shift_m
     assert fish_pilot.mode is Mode.IDLE
-
-
-def test_a_steering_table_is_inverted_over_its_monotone_stretch_only():
-    # Past its extreme at 0.6 the yaw falls again: deeper gains nothing and is never asked.
-    table = ModulationSteering([-0.9, -0.6, 0.0, 0.6, 0.9], [-0.01, -0.012, 0, 0.012, 0.011], 0, 3)
-    assert table.yaw_per_beat_range_rad == (-0.012, 0.012)
-    assert table.command(0.012).depth == pytest.approx(0.6)
-    assert table.command(0.006).depth == pytest.approx(0.3)
-    with pytest.raises(ValueError, match="increase"):
-        ModulationSteering([0.0, 0.0], [0.0, 0.1], 0, 3)
