@@ -77,7 +77,9 @@ def _shift_range(text: str) -> FloatArray:
         raise argparse.ArgumentTypeError(f"count is not an integer: {parts[2]!r}") from None
     if not 2 <= count <= 1000 or not low < high:
         raise argparse.ArgumentTypeError(f"need low < high and a count of 2 to 1000, got {text!r}")
-    return np.linspace(low, high, count)
+    # Rounded to a nanometre (and -0 made 0), so that a shift meant to be 0 prints as 0, not as
+    # linspace's -1e-17.
+    return np.round(np.linspace(low, high, count), 9) + 0.0
 
 
 def _bounded_int(low: int, high: int) -> Callable[[str], int]:
