@@ -37,7 +37,7 @@ import abc
 import math
 import time
 from collections.abc import Callable
-from typing import ClassVar, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -97,10 +97,11 @@ def scan_phases(count: int = PHASE_COUNT) -> FloatArray:
 class SteeringChannel(abc.ABC):
     """One means of steering: its input against r̄/f [rad] and Ū/f [m], and both inversions."""
 
+    # Plain attributes, not ClassVar: the pilot's Steering protocol asks for a ``name`` member.
     #: The means' name, as the pilot's ``steering`` parameter says it.
-    name: ClassVar[str]
+    name: str
     #: The input's unit ("" for a depth).
-    input_unit: ClassVar[str]
+    input_unit: str
 
     def __init__(
         self,
