@@ -2,6 +2,8 @@
 
 Topics (relative names):
   sub ``motor/joint_state``  sensor_msgs/JointState (the driver's carrier joint), sensor-data QoS
+  sub ``pivot/joint_state``  sensor_msgs/JointState (the driver's pivot actuator, when it has
+                             one): the tail swims with S shifted by its position from then on
   pub ``fish/odom``          nav_msgs/Odometry per accepted sample, stamped like it: pose X, Y and
                              the yaw psi (a quaternion about z) of the centre of mass in ``world``,
                              twist u, v (linear x, y) and r (angular z) in ``base_link``;
@@ -47,6 +49,8 @@ from fishtail_common.interface import (
     FISH_ODOM,
     FISH_SWIMMING,
     MOTOR_JOINT_STATE,
+    PIVOT_JOINT,
+    PIVOT_JOINT_STATE,
     WORLD_FRAME,
     Level,
     Status,
@@ -97,6 +101,8 @@ if TYPE_CHECKING:
 
 INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
+#: The smallest pivot movement the simulated tail follows.
+PIVOT_RESOLUTION_M = 1e-4
 
 MAX_STEP = ParameterSpec(
     "max_step_sec",
@@ -190,6 +196,12 @@ class SimNode(SuiteNodeBase):
         self.create_subscription(
             JointState, INPUT_TOPIC, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
         )
+        self.design_tail = tail
+        self.pivot_shift_m = 0.0
+        self.pivot_refusal = ""
+        self.create_subscription(
+            JointState, PIVOT_JOINT_STATE.name, self._on_pivot_state, qos_profile(PIVOT_JOINT_STATE)
+        )
         self.markers = FishMarkerPublisher(
             self,
             tail,
@@ -215,6 +227,26 @@ class SimNode(SuiteNodeBase):
             f"swimming simulator up: {tail.name} tail, body {float(fish.body_length_m):g} m, "
             f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms; tf {self.tf_state}"
         )
+
+    def _on_pivot_state(self, message: JointState) -> None:
+        try:
+            index = list(message.name).index(PIVOT_JOINT)
+            shift = float(message.position[index])
+        except (ValueError, IndexError):
+            self.pivot_refusal = f"{PIVOT_JOINT_STATE.name} has no position for {PIVOT_JOINT!r}"
+            return
+        # The actuator creeps: follow it in steps of a tenth of a millimetre, not every sample.
+        if abs(shift - self.pivot_shift_m) < PIVOT_RESOLUTION_M:
+            return
+        try:
+            tail = self.design_tail.with_pivot_shift(shift)
+        except FishtailKinematicsError as error:
+            self.pivot_refusal = f"pivot shift {shift!r} m refused: {error}"
+            self.get_logger().warning(self.pivot_refusal, throttle_duration_sec=2.0)
+            return
+        self.pivot_refusal = ""
+        self.pivot_shift_m = shift
+        self.follower.set_tail(tail)
 
     def _reject(self, reason: str, text: str) -> None:
         self.drops.count(reason)
@@ -304,6 +336,8 @@ class SimNode(SuiteNodeBase):
             or (now_ns - self.last_input_ns) * 1e-9 > self.stale_timeout_s
         ):
             level, text = Level.STALE, f"no {INPUT_TOPIC} received recently"
+        elif self.pivot_refusal:
+            level, text = Level.WARN, self.pivot_refusal
         elif level == Level.OK:
             text = f"fish at {speed:.3f} m/s, heading {heading_deg:.2f} deg; {text}"
         values = {
@@ -316,6 +350,7 @@ class SimNode(SuiteNodeBase):
             "restarts": str(self.follower.restarts),
             "received": str(self.received),
             "tf": self.tf_state,
+            "pivot_shift_m": f"{self.pivot_shift_m:.6g}",
             **input_values,
         }
         self.diagnostics_publisher.publish(

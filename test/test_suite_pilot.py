@@ -1,0 +1,129 @@
+"""The pilot node as a process: cmd_vel and odometry in, the carrier's profile out, limits said.
+
+The probe plays the fish: it publishes fish/odom (a fish swimming straight along x at a steady
+speed) and cmd_vel, and records what the pilot commands on motor/cmd_profile and says on
+/diagnostics. The closed loop through the simulator is test_suite_pilot_loop.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+
+from fishtail_common.interface import CMD_VEL, FISH_ODOM, MOTOR_CMD_PROFILE, Level
+from fishtail_common.ros import qos_profile
+from fishtail_msgs.msg import CarrierSpeedProfile
+
+PILOT_MODULE = "fishtail_swim.nodes.pilot_node"
+#: The pilot measures its steering map at start-up (under a second, plus numba's first compile).
+START_TIMEOUT_S = 60.0
+TIMEOUT_S = 20.0
+ODOM_PERIOD_S = 0.02
+
+
+class FakeFish:
+    """fish/odom of a fish swimming along x at ``speed_m_s``, published by the probe."""
+
+    def __init__(self, ros, speed_m_s: float) -> None:
+        """Publish every ODOM_PERIOD_S on the probe's node."""
+        self.ros = ros
+        self.speed_m_s = speed_m_s
+        self.x_m = 0.0
+        self.publisher = ros.node.create_publisher(Odometry, FISH_ODOM.name, qos_profile(FISH_ODOM))
+        self.timer = ros.node.create_timer(ODOM_PERIOD_S, self.publish)
+        self.running = True
+
+    def publish(self) -> None:
+        """One odometry message, the fish a step further along x."""
+        if not self.running:
+            return
+        message = Odometry()
+        message.header.stamp = self.ros.node.get_clock().now().to_msg()
+        message.header.frame_id = "world"
+        self.x_m += self.speed_m_s * ODOM_PERIOD_S
+        message.pose.pose.position.x = self.x_m
+        message.pose.pose.orientation.w = 1.0
+        message.twist.twist.linear.x = self.speed_m_s
+        self.publisher.publish(message)
+
+
+def start_pilot(start_node, ros, **params):
+    process = start_node(PILOT_MODULE, name="pilot", params=params)
+    ros.wait_for_subscribers(CMD_VEL.name, 1, START_TIMEOUT_S)
+    return process
+
+
+def twist(forward: float, yaw_rate: float) -> Twist:
+    message = Twist()
+    message.linear.x = forward
+    message.angular.z = yaw_rate
+    return message
+
+
+def test_cmd_vel_becomes_a_carrier_profile_and_the_watchdog_stops_it(start_node, ros):
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    start_pilot(start_node, ros, cmd_timeout_sec=0.5)
+    fish = FakeFish(ros, 0.3)
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    sender = ros.node.create_timer(0.1, lambda: commands.publish(twist(0.3, 0.0)))
+    ros.spin_until(
+        lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "a moving carrier profile"
+    )
+    moving = [p for p in profiles if p.mean_speed > 0.0][-1]
+    # The fish already swims at the commanded speed: the command is the feed-forward, the
+    # carrier speed of 0.3 m/s on the straight-swimming map, 2 pi 0.3 / (U/f), U/f ~ 0.287 m.
+    assert moving.mean_speed == pytest.approx(2 * math.pi * 0.3 / 0.2868, rel=0.05)
+    sender.cancel()
+    count = len(profiles)
+    ros.spin_until(
+        lambda: any(p.mean_speed == 0.0 for p in profiles[count:]),
+        TIMEOUT_S,
+        "the watchdog's stop after cmd_vel ended",
+    )
+    fish.running = False
+
+
+def test_a_turn_beyond_reach_is_reported_with_the_achievable_rate(start_node, ros):
+    diagnostics = ros.record_diagnostics()
+    start_pilot(start_node, ros, cmd_timeout_sec=0.0)
+    FakeFish(ros, 0.3)
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands.publish(twist(0.3, 5.0))
+
+    def warned():
+        return any(
+            level == Level.WARN and "yaw_rate" in status.message
+            for _, level, status in ros.statuses(diagnostics, "pilot")
+        )
+
+    ros.spin_until(warned, TIMEOUT_S, "a WARN naming the yaw rate")
+    status = next(
+        status for _, level, status in ros.statuses(diagnostics, "pilot") if level == Level.WARN
+    )
+    achievable = float(ros.values(status)["achievable_yaw_rate_rad_s"])
+    # At most 0.48 rad a beat (the map's strongest left turn) at 0.3 / 0.287 beats a second.
+    assert 0.2 < achievable < 0.6
+    assert "beyond reach" in status.message
+
+
+def test_odometry_that_stops_stops_the_carrier_with_an_error(start_node, ros):
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    diagnostics = ros.record_diagnostics()
+    start_pilot(start_node, ros, cmd_timeout_sec=0.0, odom_timeout_sec=0.3)
+    fish = FakeFish(ros, 0.1)
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands.publish(twist(0.3, 0.0))
+    ros.spin_until(
+        lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "a moving carrier profile"
+    )
+    fish.running = False
+    count = len(profiles)
+    ros.spin_until(lambda: any(p.mean_speed == 0.0 for p in profiles[count:]), TIMEOUT_S, "a stop")
+    ros.spin_until(
+        lambda: any(level == Level.ERROR for _, level, _ in ros.statuses(diagnostics, "pilot")),
+        TIMEOUT_S,
+        "an ERROR status",
+    )
