@@ -22,14 +22,14 @@ import importlib
 import sys
 from collections.abc import Sequence
 
-from fishtail_common.interface import SUITE_NODES, SWIM_NODE, SuiteNode
+from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, SuiteNode
 
 PROGRAM = "fishtail-one-process"
 ROS_ARGS = "--ros-args"
 #: Ends a node's ROS arguments (rcl's own end marker).
 END_OF_ROS_ARGS = "--"
 #: The nodes this process can host, by name.
-HOSTABLE: dict[str, SuiteNode] = {node.name: node for node in (*SUITE_NODES, SWIM_NODE)}
+HOSTABLE: dict[str, SuiteNode] = {node.name: node for node in (*SUITE_NODES, SWIM_NODE, PILOT_NODE)}
 
 
 class UsageError(ValueError):

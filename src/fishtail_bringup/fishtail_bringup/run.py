@@ -16,6 +16,12 @@ viewer: it prints where to look). ``--one-process`` hosts the nodes in one proce
 instead (``fishtail-one-process``; the view keeps its own): about half the CPU at 1 kHz and less
 latency, for a small computer, but a node that crashes ends them all.
 
+``--pilot`` adds the simulator and the pilot (fishtail_swim's ``pilot``), which commands the
+carrier instead of this console: ``--goal X,Y`` sends the fish to a point of the world frame,
+``--square SIDE`` around a square (anticlockwise, back to the start), and the line shows the fish's
+position, heading and distance to go. ``--steering pivot`` steers with the pivot actuator (the
+driver's simulated one) instead of the carrier's modulation.
+
 Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
 kills any that hang. A node that dies early ends the run with exit status 1.
 """
@@ -29,9 +35,12 @@ import time
 from pathlib import Path
 
 from fishtail_bringup.console import (
+    GoalRoute,
     fish_text,
     level_name,
     motor_text,
+    pilot_text,
+    square_route,
     status_line,
     verdict_text,
 )
@@ -40,21 +49,32 @@ from fishtail_common.config_files import default_parameter_file
 from fishtail_common.interface import (
     DIAGNOSTICS,
     FISH_ODOM,
+    GOAL_POSE,
     MOTOR_CMD_SPEED,
     MOTOR_JOINT_STATE,
+    PILOT_NODE,
     SUITE_NODES,
     SWIM_NODE,
     TAIL_STATE,
     TAIL_SYMMETRY,
     VIEW_NODE,
+    WORLD_FRAME,
     SuiteNode,
 )
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
+from fishtail_swim.pilot import GOAL_TOLERANCE
+from fishtail_swim.steering import PIVOT_STEERING, STEERING
 
 COMMAND_PERIOD_S = 0.1
+#: How often the current waypoint is sent again (a goal sent before the pilot subscribed is lost).
+GOAL_PERIOD_S = 1.0
 #: The driver's simulated motors (its motor_model parameter).
 MOTOR_MODELS = SPECS["motor_model"].choices
+#: The pilot's steering means (its steering parameter).
+STEERING_CHOICES = STEERING.choices
+#: The driver's parameter that gives it the simulated pivot actuator.
+PIVOT_ACTUATOR = "pivot_actuator"
 
 
 def _speed(text: str) -> float:
@@ -79,6 +99,26 @@ def motor_parameters(motor: str | None, load: str) -> list[str]:
     if load != NO_LOAD:
         items.append(f"motor_load:={load}")
     return items
+
+
+def _point(text: str) -> tuple[float, float]:
+    try:
+        x, y = (float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y in metres, got {text!r}") from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite point")
+    return x, y
+
+
+def _side(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"a square's side must be positive, got {text!r}")
+    return value
 
 
 def _node_names(text: str) -> tuple[SuiteNode, ...]:
@@ -142,6 +182,28 @@ def build_parser() -> argparse.ArgumentParser:
         "at (the fish of --fish)",
     )
     parser.add_argument(
+        "--pilot",
+        action="store_true",
+        help="also start the simulator and the pilot, which commands the carrier from cmd_vel "
+        "and goal_pose (this console then sends no speed)",
+    )
+    route = parser.add_mutually_exclusive_group()
+    route.add_argument(
+        "--goal", type=_point, metavar="X,Y", help="with the pilot: swim to (X, Y) m in world"
+    )
+    route.add_argument(
+        "--square",
+        type=_side,
+        metavar="SIDE",
+        help="with the pilot: swim around a square of SIDE m, anticlockwise, back to the start",
+    )
+    parser.add_argument(
+        "--steering",
+        choices=STEERING_CHOICES,
+        help="the pilot's steering means (default modulation: the carrier's speed within a "
+        "revolution; pivot: the driver's simulated pivot actuator)",
+    )
+    parser.add_argument(
         "--one-process",
         action="store_true",
         help="run the nodes in one process on one executor (about half the CPU of a process per "
@@ -166,10 +228,18 @@ def build_parser() -> argparse.ArgumentParser:
 class Console:
     """The in-process node: commands the speed, keeps the latest values for the status line."""
 
-    def __init__(self, speed_rad_s: float | None, namespace: str, say, swim: bool = False) -> None:
+    def __init__(
+        self,
+        speed_rad_s: float | None,
+        namespace: str,
+        say,
+        swim: bool = False,
+        route: GoalRoute | None = None,
+    ) -> None:
         """Create the node with its publisher and subscriptions; ``say`` prints a line.
 
-        ``swim``: also follow the simulated fish's odometry for the status line.
+        ``swim``: also follow the simulated fish's odometry for the status line. ``route``: send
+        its waypoints to the pilot on ``goal_pose`` in turn.
         """
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
@@ -215,6 +285,27 @@ class Console:
             self.node.create_subscription(
                 Odometry, FISH_ODOM.name, self._on_fish, qos_profile(FISH_ODOM)
             )
+        self.route = route
+        self.goal_publisher = None
+        if route is not None:
+            from geometry_msgs.msg import PoseStamped
+
+            self.goal = PoseStamped()
+            self.goal.header.frame_id = WORLD_FRAME
+            self.goal_publisher = self.node.create_publisher(
+                PoseStamped, GOAL_POSE.name, qos_profile(GOAL_POSE)
+            )
+            # Sent again every period: a goal published before the pilot subscribed is lost.
+            self.node.create_timer(GOAL_PERIOD_S, self.send_goal)
+
+    def send_goal(self) -> None:
+        """Publish the route's current waypoint (nothing once the route is done)."""
+        goal = None if self.route is None else self.route.current
+        if goal is None or self.goal_publisher is None:
+            return
+        self.goal.header.stamp = self.node.get_clock().now().to_msg()
+        self.goal.pose.position.x, self.goal.pose.position.y = goal
+        self.goal_publisher.publish(self.goal)
 
     def _on_state(self, message) -> None:
         self.state = message
@@ -224,6 +315,18 @@ class Console:
 
     def _on_fish(self, message) -> None:
         self.fish = message
+        route = self.route
+        if route is None:
+            return
+        reached = route.current
+        position = message.pose.pose.position
+        if route.update((position.x, position.y)):
+            assert reached is not None
+            self.say(
+                f"fishtail-run: waypoint ({reached[0]:g}, {reached[1]:g}) reached at "
+                f"({position.x:.3f}, {position.y:.3f})" + ("; route done" if route.finished else "")
+            )
+            self.send_goal()
 
     def _on_motor(self, message) -> None:
         self.torque_n_m = float(message.effort[0]) if message.effort else None
@@ -275,7 +378,12 @@ class Console:
             return fish_text(None, None)
         twist, orientation = fish.twist.twist.linear, fish.pose.pose.orientation
         heading = 2.0 * math.atan2(orientation.z, orientation.w)
-        return fish_text(math.hypot(twist.x, twist.y), heading)
+        if self.route is None:
+            return fish_text(math.hypot(twist.x, twist.y), heading)
+        position = fish.pose.pose.position
+        return f"{math.hypot(twist.x, twist.y):.3f} m/s " + pilot_text(
+            (position.x, position.y), heading, self.route.current
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -283,12 +391,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     arguments = parser.parse_args(argv)
     loaded = arguments.load != NO_LOAD
+    piloted = arguments.pilot or arguments.goal is not None or arguments.square is not None
+    if arguments.steering is not None and not piloted:
+        parser.error("--steering is the pilot's: add --pilot (or --goal, --square)")
     if loaded and arguments.motor != "dc":
         parser.error(f"--load {arguments.load} needs --motor dc (only the DC motor feels a load)")
     try:
         config = arguments.config or default_parameter_file(arguments.mechanism)
         fish_config = None
-        if arguments.swim or loaded:
+        if arguments.swim or loaded or piloted:
             fish_config = arguments.fish or default_parameter_file("fish")
     except LookupError as error:
         print(f"fishtail-run: error: {error}", file=sys.stderr)
@@ -304,10 +415,17 @@ def main(argv: list[str] | None = None) -> int:
 
     stop = install_stop_handlers()
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    nodes = (*arguments.nodes, SWIM_NODE) if arguments.swim else arguments.nodes
+    swim = arguments.swim or piloted
+    nodes = (*arguments.nodes, SWIM_NODE) if swim else arguments.nodes
+    nodes = (*nodes, PILOT_NODE) if piloted else nodes
     nodes = (*nodes, VIEW_NODE) if arguments.view else nodes
+    steering = arguments.steering or STEERING.default
+    pilot_params = [f"{STEERING.name}:={steering}"] if piloted else []
+    pivot_params = [f"{PIVOT_ACTUATOR}:=sim"] if piloted and steering == PIVOT_STEERING else []
     # The driver's own parameters after --motor's, so that --driver-param overrides them.
-    driver_params = motor_parameters(arguments.motor, arguments.load) + arguments.driver_param
+    driver_params = (
+        motor_parameters(arguments.motor, arguments.load) + pivot_params + arguments.driver_param
+    )
     supervisor = Supervisor(
         config,
         arguments.namespace,
@@ -316,8 +434,14 @@ def main(argv: list[str] | None = None) -> int:
         fish_config,
         driver_reads_fish=loaded,
         one_process=arguments.one_process,
+        pilot_params=pilot_params,
     )
-    speed = None if arguments.no_command else arguments.speed
+    speed = None if arguments.no_command or piloted else arguments.speed
+    route = None
+    if arguments.goal is not None:
+        route = GoalRoute([arguments.goal], float(GOAL_TOLERANCE.default))
+    elif arguments.square is not None:
+        route = GoalRoute(square_route(arguments.square), float(GOAL_TOLERANCE.default))
     interactive = sys.stdout.isatty()
     if interactive:
         supervisor.clear_line = "\r\033[K"
@@ -326,11 +450,17 @@ def main(argv: list[str] | None = None) -> int:
         + ("in one process, " if arguments.one_process else "")
         + (f"{arguments.motor} motor, " if arguments.motor else "")
         + (f"turning the tail ({arguments.load}), " if loaded else "")
-        + ("motor commanded elsewhere" if speed is None else f"at {speed:g} rad/s")
+        + (
+            f"piloted ({steering} steering)"
+            if piloted
+            else "motor commanded elsewhere"
+            if speed is None
+            else f"at {speed:g} rad/s"
+        )
         + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
     )
     supervisor.start()
-    console = Console(speed, arguments.namespace, supervisor.say, arguments.swim)
+    console = Console(speed, arguments.namespace, supervisor.say, swim, route)
     executor = rclpy.executors.SingleThreadedExecutor()
     executor.add_node(console.node)
     started = time.monotonic()

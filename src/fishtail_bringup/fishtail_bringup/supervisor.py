@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from fishtail_bringup.one_process import END_OF_ROS_ARGS, HOSTABLE
-from fishtail_common.interface import SUITE_NODES, SWIM_NODE, SuiteNode
+from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, SuiteNode
 
 SHUTDOWN_WAIT_S = 5.0
 #: The label of the process that hosts the nodes with ``one_process``.
@@ -36,13 +36,16 @@ class Supervisor:
         fish_config: Path | None = None,
         driver_reads_fish: bool = False,
         one_process: bool = False,
+        pilot_params: list[str] | None = None,
     ) -> None:
         """Remember how to start the nodes.
 
         ``fish_config``, the fish's parameter file, goes to the simulator, and to the driver with
-        ``driver_reads_fish`` (its motor turns the tail). ``one_process``: host the nodes in one
-        process (:meth:`commands`).
+        ``driver_reads_fish`` (its motor turns the tail), and to the pilot. ``one_process``: host
+        the nodes in one process (:meth:`commands`). ``pilot_params`` (``NAME:=VALUE``) go to the
+        pilot.
         """
+        self.pilot_params = pilot_params or []
         self.one_process = one_process
         self.nodes = nodes
         self.fish_config = fish_config
@@ -68,7 +71,7 @@ class Supervisor:
     def ros_arguments_for(self, node: SuiteNode) -> list[str]:
         """The ``--ros-args ...`` of one node: parameter files, namespace, driver parameters."""
         command = ["--ros-args", "--params-file", str(self.config)]
-        reads_fish = node == SWIM_NODE or (
+        reads_fish = node in (SWIM_NODE, PILOT_NODE) or (
             self.driver_reads_fish and node.package == "fishtail_driver"
         )
         if reads_fish and self.fish_config is not None:
@@ -77,6 +80,9 @@ class Supervisor:
             command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
         if node.package == "fishtail_driver":
             for item in self.driver_params:
+                command += ["-p", item]
+        if node == PILOT_NODE:
+            for item in self.pilot_params:
                 command += ["-p", item]
         return command
 
