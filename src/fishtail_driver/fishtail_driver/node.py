@@ -1,7 +1,13 @@
 """Driver node: commands the carrier speed and publishes the encoder angle.
 
 Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the whole suite):
-  sub ``motor/cmd_speed``    std_msgs/Float64, carrier speed [rad/s], >= 0 (one-way motor)
+  sub ``motor/cmd_speed``    std_msgs/Float64, carrier speed [rad/s], >= 0 (one-way motor): a
+                             flat speed profile
+  sub ``motor/cmd_profile``  fishtail_msgs/CarrierSpeedProfile: mean speed [rad/s], depth and
+                             phase [rad] of a once-per-revolution modulation, followed at every
+                             encoder sample the node reads (:mod:`fishtail_driver.profile_command`;
+                             the latest command of either topic wins; a profile that cannot be
+                             run is refused, with what could be, and the previous one stays)
   pub ``motor/joint_state``  sensor_msgs/JointState, unwrapped carrier angle [rad] and speed
                              [rad/s], sensor-data QoS, at ``publish_rate_hz``, stamped with the
                              time the encoder was read (not the publish time); stamps strictly
@@ -12,12 +18,15 @@ Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the who
                              WARN when motor/joint_state is rarer or has longer gaps than the
                              parameters promise (:mod:`fishtail_common.stream_timing`); the
                              backend's figures as key values (the dc motor's current_a,
-                             supply_power_w ...)
+                             supply_power_w ...), the profile in force; WARN while the latest
+                             profile was refused
+  and the pivot actuator's topics with ``pivot_actuator: sim`` (:mod:`fishtail_driver.pivot_output`)
 
 Parameters: :mod:`fishtail_driver.parameters`; with ``motor_load`` (sim, ``motor_model: dc``) also
 the tail's, its links' and the fish's, read-only, from which the motor's load is built once at start
 (:mod:`fishtail_driver.sim_load`). A watchdog, on a timer of its own (at most 50 ms,
-whatever the publish rate), stops the motor when no command arrives for ``cmd_timeout_sec``;
+whatever the publish rate), stops the motor when no command (speed or profile) arrives for
+``cmd_timeout_sec``, and leaves the pivot where it is;
 SIGINT and SIGTERM stop the motor before the node exits (:func:`fishtail_common.ros.run_node`
 calls :meth:`DriverNode.before_exit`). A backend may refuse a disabled watchdog (the serial one
 does) and is told to stop keeping a speed alive once the node has not commanded it for
@@ -31,7 +40,6 @@ runs after spinning: the node's state needs no lock (the serial backend locks it
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from collections.abc import Callable
@@ -46,6 +54,7 @@ from std_msgs.msg import Float64
 
 from fishtail_common.interface import (
     DIAGNOSTICS,
+    MOTOR_CMD_PROFILE,
     MOTOR_CMD_SPEED,
     MOTOR_JOINT_STATE,
     Level,
@@ -62,10 +71,19 @@ from fishtail_common.ros import (
     run_node,
 )
 from fishtail_common.stream_timing import RateCheck
-from fishtail_driver.backends import EncoderSample, StopOutcome
-from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, ParameterValues, make_backend
+from fishtail_driver.backends import StopOutcome
+from fishtail_driver.parameters import (
+    DRIVER_PARAMETERS,
+    SPECS,
+    ParameterValues,
+    make_backend,
+    pivot_refusal,
+)
+from fishtail_driver.pivot_output import make_pivot_output
+from fishtail_driver.profile_command import CarrierCommand, CommandRefusedError
 from fishtail_driver.sim_load import NO_LOAD, load_parameters, load_refusal, tail_load
 from fishtail_driver.stamping import ClockMapping, IncreasingStamps
+from fishtail_msgs.msg import CarrierSpeedProfile
 
 if TYPE_CHECKING:
     from fishtail_swim.dynamics.motor_load import TailLoad
@@ -100,6 +118,9 @@ class DriverNode(SuiteNodeBase):
         values = declare(self, DRIVER_PARAMETERS)
         self.cmd_timeout_sec = float(values["cmd_timeout_sec"])
         self.motor_load = str(values["motor_load"])
+        reason = pivot_refusal(values)
+        if reason is not None:
+            raise ValueError(reason)
         load = self._tail_load(values)
         if load is None:
             self.backend = make_backend(values)
@@ -110,14 +131,12 @@ class DriverNode(SuiteNodeBase):
             raise ValueError(reason)
         self.backend.set_command_hold(self.cmd_timeout_sec + COMMAND_HOLD_MARGIN_S)
 
-        self.commanded_speed = 0.0
+        self.max_speed = float(values["max_speed_rad_s"])
+        self.command = CarrierCommand(self.max_speed)
         self.last_command_ns: int | None = None
         self.watchdog_stops = 0
-        self.rejected_commands = 0
-        self.clamped_commands = 0
         self.watchdog_tripped = False
         self.phase_rebases_seen = 0
-        self.max_speed = float(values["max_speed_rad_s"])
         self.publish_rate_hz = float(values["publish_rate_hz"])
         self.max_sample_rate_hz = self.backend.max_sample_rate_hz
         self.clock_mapping = ClockMapping()
@@ -138,6 +157,13 @@ class DriverNode(SuiteNodeBase):
         self.create_subscription(
             Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
         )
+        self.create_subscription(
+            CarrierSpeedProfile,
+            MOTOR_CMD_PROFILE.name,
+            self._on_profile,
+            qos_profile(MOTOR_CMD_PROFILE),
+        )
+        self.pivot = make_pivot_output(self, values, self._stamp)
         self.publish_timer = self.create_timer(1.0 / self.publish_rate_hz, self._on_publish_tick)
         self.watchdog_timer = self.create_timer(
             watchdog_period_s(self.cmd_timeout_sec), self._check_watchdog
@@ -224,65 +250,79 @@ class DriverNode(SuiteNodeBase):
 
     # ---- commands, watchdog, publishing
 
+    @property
+    def commanded_speed(self) -> float:
+        """The carrier speed last asked of the backend [rad/s]."""
+        return self.command.commanded_speed_rad_s
+
     def _on_command(self, message: Float64) -> None:
-        speed = message.data
-        if not math.isfinite(speed) or speed < 0.0:
-            self.rejected_commands += 1
-            self.get_logger().warning(
-                f"refused speed command {speed!r} rad/s: the motor turns one way, "
-                "commands must be finite and >= 0",
-                throttle_duration_sec=1.0,
-            )
+        try:
+            clamped = self.command.set_speed(message.data)
+        except CommandRefusedError as refusal:
+            self.get_logger().warning(str(refusal), throttle_duration_sec=1.0)
             return
-        if speed > self.max_speed:
-            self.clamped_commands += 1
-            self.get_logger().warning(
-                f"speed command {speed:g} rad/s clamped to max_speed_rad_s = {self.max_speed:g}",
-                throttle_duration_sec=1.0,
+        if clamped is not None:
+            self.get_logger().warning(clamped, throttle_duration_sec=1.0)
+        self._command_accepted()
+
+    def _on_profile(self, message: CarrierSpeedProfile) -> None:
+        try:
+            self.command.set_profile(
+                message.mean_speed, message.modulation_depth, message.modulation_phase
             )
-            speed = self.max_speed
-        self.commanded_speed = speed
+        except CommandRefusedError as refusal:
+            self.get_logger().warning(str(refusal), throttle_duration_sec=1.0)
+            return
+        self._command_accepted()
+
+    def _command_accepted(self) -> None:
+        """A speed or a profile is in force: feed the watchdog, command its speed now."""
         self.last_command_ns = self.get_clock().now().nanoseconds
         if self.watchdog_tripped:
             self.get_logger().info("commands resumed")
         self.watchdog_tripped = False
-        self.backend.set_speed(speed)
+        self.backend.set_speed(self.command.commanded_speed_rad_s)
 
     def _check_watchdog(self) -> None:
         if self.cmd_timeout_sec <= 0.0 or self.last_command_ns is None or self.watchdog_tripped:
             return
         age_s = (self.get_clock().now().nanoseconds - self.last_command_ns) * 1e-9
-        if age_s > self.cmd_timeout_sec and self.commanded_speed > 0.0:
+        if age_s > self.cmd_timeout_sec and self.command.moving:
             self.watchdog_tripped = True
             self.watchdog_stops += 1
-            self.commanded_speed = 0.0
+            self.command.stop()
             self.backend.stop()
             self.get_logger().warning(
                 f"no speed command for {age_s:.2f} s (cmd_timeout_sec = {self.cmd_timeout_sec:g}):"
                 " motor stopped"
             )
 
-    def _sample_stamp(self, sample: EncoderSample) -> Time | None:
-        """The ROS time at which ``sample`` was read, or None if it is not after the last stamp.
+    def _stamp(self, monotonic_s: float, stamps: IncreasingStamps) -> Time | None:
+        """The ROS time of ``monotonic_s``, or None if it is not after the last of ``stamps``.
 
         One mapping from the monotonic clock (on which backends date samples) to ROS time,
         observed here with the ROS clock read between two monotonic readings; see
-        :mod:`fishtail_driver.stamping`.
+        :mod:`fishtail_driver.stamping`. Each published stream has its own ``stamps``.
         """
         before = time.monotonic_ns()
         ros_ns = self.get_clock().now().nanoseconds
         after = time.monotonic_ns()
         self.clock_mapping.observe(before, ros_ns, after)
-        stamp_ns = self.stamps.admit(self.clock_mapping.to_ros_ns(round(sample.monotonic_s * 1e9)))
+        stamp_ns = stamps.admit(self.clock_mapping.to_ros_ns(round(monotonic_s * 1e9)))
         if stamp_ns is None:
             return None
         return Time(sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000)
 
     def _on_publish_tick(self) -> None:
+        self.pivot.publish(time.monotonic())
         sample = self.backend.read()
         if sample is None:
             return
-        stamp = self._sample_stamp(sample)
+        # A modulated profile's speed at the angle just measured (None: a flat one, already sent).
+        speed = self.command.follow(sample.angle_rad)
+        if speed is not None:
+            self.backend.set_speed(speed)
+        stamp = self._stamp(sample.monotonic_s, self.stamps)
         if stamp is None:
             return  # counted: dropped_backward_stamps
         self.rate_check.record(sample.monotonic_s)
@@ -315,6 +355,10 @@ class DriverNode(SuiteNodeBase):
         if self.watchdog_tripped and level == Level.OK:
             level = Level.WARN
             text = f"no speed command for over {self.cmd_timeout_sec:g} s: motor stopped"
+        refusal = self.command.pending_refusal
+        if refusal is not None:
+            level = max(level, Level.WARN)
+            text = f"{text}; {refusal}"
         rate = self.rate_check.report(time.monotonic(), self.expected_rate_hz())
         if rate.shortfall is not None:
             level = max(level, Level.WARN)
@@ -323,26 +367,24 @@ class DriverNode(SuiteNodeBase):
             **values,
             "backend": self.backend.name,
             **({} if self.motor_load == NO_LOAD else {"motor_load": self.motor_load}),
-            "commanded_speed_rad_s": f"{self.commanded_speed:.4f}",
+            **self.command.status_values(),
             "watchdog_stops": str(self.watchdog_stops),
-            "rejected_commands": str(self.rejected_commands),
-            "clamped_commands": str(self.clamped_commands),
             "joint_state_rate_hz": f"{rate.rate_hz:.1f}",
             "joint_state_expected_rate_hz": f"{rate.expected_rate_hz:g}",
             "joint_state_longest_gap_ms": f"{rate.longest_gap_s * 1e3:.1f}",
             "dropped_backward_stamps": str(self.stamps.dropped),
             "clock_steps": str(self.clock_mapping.steps),
         }
-        self.diagnostics_publisher.publish(
-            diagnostic_array(self, Status("motor", level, text, values, self.backend.hardware_id))
-        )
+        # The motor's status last: readers that keep one status per node keep that one.
+        motor = Status("motor", level, text, values, self.backend.hardware_id)
+        self.diagnostics_publisher.publish(diagnostic_array(self, *self.pivot.statuses(), motor))
 
     def shutdown(self) -> StopOutcome:
         """Stop the motor and release the backend; logs whether the stop got through.
 
         Safe to call twice (the node's exit runs it through :meth:`before_exit`).
         """
-        self.commanded_speed = 0.0
+        self.command.stop()
         self.backend.stop()
         outcome = self.backend.close()
         if outcome.confirmed:

@@ -12,7 +12,9 @@ defaults are a Pololu 37D 12 V motor (:class:`fishtail_swim.dynamics.dc_motor.
 DcMotorParameters`), whose 30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
 ``encoder_counts_per_revolution:=64`` (not those parameters' defaults: :data:`DC_MOTOR_ENCODER`).
 With ``motor_load`` other than ``none`` the DC motor turns the tail (:mod:`fishtail_driver.
-sim_load`); the node then declares the tail's, links' and fish's parameters as well.
+sim_load`); the node then declares the tail's, links' and fish's parameters as well. ``pivot_*``
+describe the pivot actuator (:mod:`fishtail_driver.pivot_actuator`), simulated beside the
+simulated backend only (:func:`pivot_refusal`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from fishtail_driver.backends import MotorBackend, SimBackend, SimMotor
 from fishtail_driver.dc_drive import PidDrivenDcMotor
 from fishtail_driver.firmware_pid import PidGains
 from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
+from fishtail_driver.pivot_actuator import PivotLimits
 from fishtail_driver.protocol import Scale
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
 from fishtail_swim.dynamics.dc_motor import (
@@ -37,6 +40,9 @@ from fishtail_swim.dynamics.dc_motor import (
 )
 
 ParameterValues = Mapping[str, ParameterValue]
+#: ``pivot_actuator`` values.
+PIVOT_ACTUATORS = ("none", "sim")
+NO_PIVOT = "none"
 
 DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("backend", "sim", "motor backend: sim or serial", choices=("sim", "serial"),
@@ -122,6 +128,15 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   0.1, 60.0, read_only=True),
     ParameterSpec("serial_stale_timeout_sec", 1.0, "serial: no valid reply for this long: "
                   "reconnect", "s", 0.1, 60.0, read_only=True),
+    # The pivot actuator: a lead screw shifting the tail's pivot S along the body axis
+    # (fishtail_driver.pivot_actuator); the command watchdog leaves it where it is.
+    ParameterSpec("pivot_actuator", "none", "the pivot actuator: none (no pivot topics) or sim (a "
+                  "simulated lead screw: pivot/cmd_position in, pivot/joint_state out; backend "
+                  "sim only)", choices=PIVOT_ACTUATORS, read_only=True),
+    ParameterSpec("pivot_stroke_m", 0.03, "pivot: half its travel; it moves within +- this of "
+                  "the design position", "m", 0.001, 1.0, read_only=True),
+    ParameterSpec("pivot_speed_m_s", 0.01, "pivot: the lead screw's speed (constant towards the "
+                  "target, stopping at it)", "m/s", 0.0001, 1.0, read_only=True),
 )  # fmt: skip
 
 #: The specs by name.
@@ -178,8 +193,17 @@ _SIM_MOTORS: dict[str, Callable[[ParameterValues, LoadTorque, LoadInertia], SimM
 }
 
 
+def make_sim_motor(
+    values: ParameterValues,
+    load: LoadTorque = zero_load,
+    load_inertia: LoadInertia = zero_load_inertia,
+) -> SimMotor:
+    """The simulated motor ``motor_model`` names, as the sim backend runs it (for its own clock)."""
+    return _SIM_MOTORS[str(values["motor_model"])](values, load, load_inertia)
+
+
 def _sim_backend(values: ParameterValues, load: LoadTorque, inertia: LoadInertia) -> MotorBackend:
-    return SimBackend(_SIM_MOTORS[str(values["motor_model"])](values, load, inertia))
+    return SimBackend(make_sim_motor(values, load, inertia))
 
 
 def _serial_backend(
@@ -227,3 +251,20 @@ def make_backend(
     ValueError, with the reason, for settings the backend cannot work with.
     """
     return _BACKENDS[str(values["backend"])](values, load, load_inertia)
+
+
+def pivot_refusal(values: ParameterValues) -> str | None:
+    """Why ``values`` cannot have their ``pivot_actuator``, or None when they can."""
+    if values["pivot_actuator"] != NO_PIVOT and values["backend"] != "sim":
+        return (
+            f"pivot_actuator {values['pivot_actuator']} needs backend sim (got backend "
+            f"{values['backend']}): a simulated pivot beside a real motor would publish a pivot "
+            "position that nothing moves, and the driver does not yet drive a pivot on the motor "
+            "board's second channel (docs/serial.md, 'The pivot actuator on the board')"
+        )
+    return None
+
+
+def pivot_limits(values: ParameterValues) -> PivotLimits:
+    """The pivot actuator's stroke and speed."""
+    return PivotLimits(float(values["pivot_stroke_m"]), float(values["pivot_speed_m_s"]))

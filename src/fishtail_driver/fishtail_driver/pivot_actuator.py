@@ -85,10 +85,10 @@ class PivotActuator:
     def state(self, now_s: float) -> tuple[float, float]:
         """Position [m] and velocity [m/s] at ``now_s`` (at or after the last command)."""
         travelled = self._travelled_m(now_s)
+        if travelled >= abs(self.target_m - self._start_m):
+            return self.target_m, 0.0  # arrived: exactly there, whatever the rounding on the way
         direction = math.copysign(1.0, self.target_m - self._start_m)
-        moving = travelled < abs(self.target_m - self._start_m)
-        velocity = direction * self.limits.speed_m_s if moving else 0.0
-        return self._start_m + direction * travelled, velocity
+        return self._start_m + direction * travelled, direction * self.limits.speed_m_s
 
     def arrival_s(self) -> float:
         """When the move in progress reaches its target (in the past once it has)."""

@@ -21,7 +21,7 @@ from fishtail_driver.modulation_fit import (
     speeds_from_angles,
     wrap_angle,
 )
-from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_backend
+from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_sim_motor
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 
 ONE_HZ = 2.0 * math.pi  # the mean carrier speed of a 1 Hz beat [rad/s]
@@ -30,7 +30,7 @@ ONE_HZ = 2.0 * math.pi  # the mean carrier speed of a 1 Hz beat [rad/s]
 def sim_motor(**changes):
     """The simulated backend's motor at the driver's defaults with ``changes``."""
     values = {**{spec.name: spec.default for spec in DRIVER_PARAMETERS}, **changes}
-    return make_backend(values).motor
+    return make_sim_motor(values)
 
 
 def test_doctests():
@@ -105,7 +105,9 @@ def test_a_first_order_lag_measures_as_theory_says():
     profile = CarrierSpeedProfile(ONE_HZ, 0.1, 2.0)
     motor = sim_motor(sim_time_constant_sec=0.15)
     recording = follow_simulated(motor, profile, 1000.0, 8.0)
-    result = measure_following(*vars(recording).values(), profile, skip_revolutions=2)
+    result = measure_following(
+        recording.times_s, recording.angles_rad, recording.speeds_rad_s, profile, skip_revolutions=2
+    )
     w_tau = ONE_HZ * 0.15
     assert result.depth_ratio == pytest.approx(1.0 / math.hypot(1.0, w_tau), abs=0.01)
     # A sample's command waits for the next sample: half a millisecond's worth of angle later.
@@ -121,7 +123,9 @@ def test_the_dc_motor_follows_depth_half_at_one_hertz():
     profile = CarrierSpeedProfile(ONE_HZ, 0.5, 2.0)
     motor = sim_motor(motor_model="dc", **DC_MOTOR_ENCODER)
     recording = follow_simulated(motor, profile, 200.0, 8.0)
-    result = measure_following(*vars(recording).values(), profile, skip_revolutions=2)
+    result = measure_following(
+        recording.times_s, recording.angles_rad, recording.speeds_rad_s, profile, skip_revolutions=2
+    )
     assert len(result.revolutions) >= 5
     assert result.depth == pytest.approx(0.5, abs=0.03)
     assert result.phase_lag_rad == pytest.approx(0.57, abs=0.07)

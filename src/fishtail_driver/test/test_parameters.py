@@ -10,7 +10,13 @@ import pytest
 from fishtail_common.parameters import ParameterValueError
 from fishtail_driver import status_counters
 from fishtail_driver.backends import SimBackend
-from fishtail_driver.parameters import DRIVER_PARAMETERS, SPECS, make_backend
+from fishtail_driver.parameters import (
+    DRIVER_PARAMETERS,
+    SPECS,
+    make_backend,
+    pivot_limits,
+    pivot_refusal,
+)
 
 
 def defaults(**changes) -> dict:
@@ -45,3 +51,19 @@ def test_backends_made_from_the_values_say_what_they_need_of_the_node(tmp_path):
 def test_status_counters_doctests():
     result = doctest.testmod(status_counters)
     assert result.failed == 0 and result.attempted >= 3
+
+
+def test_the_pivot_actuator_is_simulated_beside_the_simulated_motor_only():
+    assert pivot_refusal(defaults()) is None
+    assert pivot_refusal(defaults(pivot_actuator="sim")) is None
+    assert pivot_refusal(defaults(backend="serial")) is None  # none: nothing to refuse
+    reason = pivot_refusal(defaults(backend="serial", pivot_actuator="sim"))
+    assert "pivot_actuator sim needs backend sim (got backend serial)" in reason
+    assert "docs/serial.md" in reason
+    limits = pivot_limits(defaults(pivot_stroke_m=0.05, pivot_speed_m_s=0.02))
+    assert (limits.stroke_m, limits.speed_m_s) == (0.05, 0.02)
+    assert (SPECS["pivot_stroke_m"].default, SPECS["pivot_speed_m_s"].default) == (0.03, 0.01)
+    with pytest.raises(ParameterValueError, match="pivot_actuator must be one of none, sim"):
+        SPECS["pivot_actuator"].check("serial")
+    with pytest.raises(ParameterValueError, match=r"pivot_speed_m_s = 0.0 is outside"):
+        SPECS["pivot_speed_m_s"].check(0.0)
