@@ -10,9 +10,11 @@ waits, bounded, for the thread to send ``m 0 0`` and finish). The thread:
 - polls ``e`` at ``poll_rate_hz``; :class:`fishtail_driver.encoder_tracking.EncoderTracker` turns
   the readings into the continuous angle and its velocity, each dated when its request reached
   the board; a re-based angle (board reset) keeps status() WARN for ``phase_warn_s``;
-- sends ``m`` when the commanded speed changes and re-sends it every ``resend_period_s`` while it
-  is not zero, so the board's 2 s auto-stop never fires while motion is commanded, but only while
-  the last :meth:`SerialBackend.set_speed` is at most ``command_hold_s`` old: if the node stops
+- sends ``m`` when the commanded speed changes (a stop at once; a change of a running speed at
+  most once per PID frame: the firmware uses the target in force at each frame, and a speed
+  profile changes it at every sample) and re-sends it every ``resend_period_s`` while it is not
+  zero, so the board's 2 s auto-stop never fires while motion is commanded, but only while the
+  last :meth:`SerialBackend.set_speed` is at most ``command_hold_s`` old: if the node stops
   calling (its executor hangs, its watchdog with it), the board's auto-stop stops the motor;
 - declares the link lost (ERROR, port closed, reconnect with backoff) on an I/O error, a path that
   vanished or points to another device, or no valid reply for ``stale_timeout_s``; a transient
@@ -132,10 +134,14 @@ class SerialBackend:
         if clamped:
             self.counters.count("clamped_commands")
         with self._lock:
+            # Called at every sample while a speed profile runs: wake the I/O thread only when
+            # there is something new to send.
+            wake = ticks != self._target_ticks or self._resends_paused
             self._target_speed = speed_rad_s
             self._target_ticks = ticks
             self._set_at = now
-        self._wake.set()
+        if wake:
+            self._wake.set()
 
     @property
     def command_hold_s(self) -> float | None:
@@ -339,7 +345,9 @@ class SerialBackend:
                 ticks, acked, acked_at = self._target_ticks, self._acked_ticks, self._acked_at
                 sendable = self._sendable_locked(ticks, now)
             resend_due = acked_at + config.resend_period_s
-            due = sendable and (ticks != acked or (ticks != 0 and now >= resend_due))
+            change_due = self._change_due(ticks, acked, acked_at)
+            due = sendable and ((ticks != acked and now >= change_due)
+                                or (ticks != 0 and now >= resend_due))  # fmt: skip
             if due and now >= self._motor_retry_at:
                 self._send_motor(ticks, resend=ticks == acked)
             now = self._clock()
@@ -361,13 +369,20 @@ class SerialBackend:
             if not sendable:
                 pass  # a stale non-zero speed: nothing to send until set_speed() is called
             elif ticks != acked:
-                deadline = min(deadline, max(now, self._motor_retry_at))
+                change_due = self._change_due(ticks, acked, acked_at)
+                deadline = min(deadline, max(now, self._motor_retry_at, change_due))
             elif ticks != 0:
                 deadline = min(deadline, max(acked_at + config.resend_period_s,
                                              self._motor_retry_at))  # fmt: skip
             timeout = deadline - self._clock()
             if timeout > 0:
                 self._wake.wait(timeout)
+
+    def _change_due(self, ticks: int, acked: int | None, acked_at: float) -> float:
+        """When ``ticks`` may replace the acknowledged target: a frame after a running one."""
+        if ticks == 0 or not acked:
+            return -math.inf  # a stop, a start, or nothing acknowledged since connecting
+        return acked_at + self.scale.frame_s
 
     def _sendable_locked(self, ticks: int, now: float) -> bool:
         """Whether ``ticks`` may be sent now: zero always, non-zero while set_speed() is fresh.
