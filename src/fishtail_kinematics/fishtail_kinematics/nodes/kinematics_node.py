@@ -2,6 +2,9 @@
 
 Topics (relative names):
   sub ``motor/joint_state``  sensor_msgs/JointState (the driver's carrier joint), sensor-data QoS
+  sub ``pivot/joint_state``  sensor_msgs/JointState, joint ``pivot_joint``: the pivot actuator's
+                             shift of S along the body axis [m]; every carrier sample is solved
+                             with the latest shift (none received: the design's S)
   pub ``tail/joint_states``  sensor_msgs/JointState: theta1, theta2, theta3 (+ theta4, theta5 for
                              the undulatory mechanism), positions [rad] and velocities [rad/s]
   pub ``tail/tip``           geometry_msgs/PointStamped, tip T in frame ``frame_id`` (origin O)
@@ -10,15 +13,19 @@ Topics (relative names):
                              planet, Cardan point, links, joints, tip trail; at
                              ``markers_rate_hz`` (0 = off), built on a timer from the latest state
   pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray: STALE without input; WARN when
-                             samples were dropped (counts per reason in ``dropped_<reason>``) or
+                             samples were dropped (counts per reason in ``dropped_<reason>``),
                              the input has gaps or a low rate (``input_rate_hz``,
-                             ``longest_gap_ms``, ...); else OK
+                             ``longest_gap_ms``, ...) or a pivot shift was refused; else OK;
+                             ``pivot_shift_m``, ``swing_bias_deg`` and ``pivot_refused`` always
 
 Implausible ``motor/joint_state`` samples are dropped before the engine sees them, by the rules
 of :mod:`fishtail_kinematics.engine.input_guard`; gaps and rate are judged by
 :mod:`fishtail_common.stream_timing`. Geometry parameters are validated by the engine
 when set: an infeasible linkage is refused with the engine's reason and the previous geometry
-stays in force; a set that changes nothing is not news and is not logged.
+stays in force; a set that changes nothing is not news and is not logged. A pivot shift at which
+the linkage cannot assemble (``Tail.with_pivot_shift`` refuses it) is reported on /diagnostics and
+the tail solved so far stays in use; so is a geometry change that the current shift would make
+infeasible.
 """
 
 from __future__ import annotations
@@ -39,6 +46,8 @@ from fishtail_common.interface import (
     DIAGNOSTICS,
     MECHANISM_CODES,
     MOTOR_JOINT_STATE,
+    PIVOT_JOINT,
+    PIVOT_JOINT_STATE,
     TAIL_FRAME,
     TAIL_JOINT_STATES,
     TAIL_STATE,
@@ -127,7 +136,12 @@ class KinematicsNode(SuiteNodeBase):
         """Declare parameters, build the engine (raises on an infeasible geometry), wire topics."""
         super().__init__("kinematics", **node_options)
         values = declare(self, PARAMETERS)
+        #: The tail every carrier sample is solved with: the design's, S shifted by the latest
+        #: pivot/joint_state the engine accepted.
         self.tail = make_tail(geometry_from_parameters(geometry_parameters_in(values)))
+        self.pivot_refused = 0  # pivot shifts the engine refused, since start
+        self._pivot_refusal = ""  # why the latest pivot/joint_state was refused
+        self._pivot_refusal_in_period = False
         self.frame_id = str(values[FRAME_ID.name])
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
         self.stale_timeout_s = float(values[STALE_TIMEOUT.name])
@@ -160,6 +174,9 @@ class KinematicsNode(SuiteNodeBase):
         self.create_subscription(
             JointState, INPUT_TOPIC, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
         )
+        self.create_subscription(
+            JointState, PIVOT_JOINT_STATE.name, self._on_pivot_state, qos_profile(PIVOT_JOINT_STATE)
+        )
         self.markers = TailMarkerPublisher(
             self,
             self.tail,
@@ -172,10 +189,16 @@ class KinematicsNode(SuiteNodeBase):
         self.get_logger().info(f"kinematics up: {self._geometry_text()}")
 
     def _geometry_text(self) -> str:
-        return (
+        text = (
             f"{self.tail.name} mechanism, swing range "
             f"{math.degrees(self.tail.drive.swing_range_rad):.3f} deg"
         )
+        if self.tail.pivot_shift_m != 0.0:
+            text += (
+                f", pivot shifted {1000.0 * self.tail.pivot_shift_m:+.2f} mm (swing bias "
+                f"{math.degrees(self.tail.swing_bias_rad):+.3f} deg)"
+            )
+        return text
 
     def _configure_messages(self) -> None:
         """Set what the tail's mechanism decides once: joint names, fields to copy, NaN fields."""
@@ -196,6 +219,9 @@ class KinematicsNode(SuiteNodeBase):
         for name in _TAIL_STATE_FLOATS:
             if name not in tail.state_fields:
                 setattr(self.state, name, _NAN)  # a field of another mechanism
+        # Not state fields: the tail's own, set again whenever the pivot moves.
+        self.state.pivot_shift = tail.pivot_shift_m
+        self.state.swing_bias = tail.swing_bias_rad
 
     def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
         changed = {p.name: p.value for p in parameters}
@@ -211,7 +237,10 @@ class KinematicsNode(SuiteNodeBase):
         if geometry:
             values = {**current, **geometry_parameters_in(changed)}
             try:
-                tail = make_tail(geometry_from_parameters(values))
+                # The pivot stays where the actuator holds it: the new links must assemble there.
+                tail = make_tail(geometry_from_parameters(values)).with_pivot_shift(
+                    self.tail.pivot_shift_m
+                )
             except FishtailKinematicsError as error:
                 self.get_logger().warning(f"geometry change refused: {error}")
                 return SetParametersResult(successful=False, reason=str(error))
@@ -230,6 +259,35 @@ class KinematicsNode(SuiteNodeBase):
             self.markers.set_trail_length(changed[MARKERS_TRAIL_LENGTH.name])
         self.guard.apply_parameters(changed)
         return SetParametersResult(successful=True)
+
+    def _on_pivot_state(self, message: JointState) -> None:
+        """Swap to the tail with S where the actuator says it is, if the engine accepts it."""
+        try:
+            shift = message.position[list(message.name).index(PIVOT_JOINT)]
+        except (ValueError, IndexError):
+            self._refuse_pivot(f"no position for joint {PIVOT_JOINT!r}")
+            return
+        if shift == self.tail.pivot_shift_m:
+            return
+        try:
+            # About 15 us for mechanism 1, 0.3 ms for mechanism 2 (its first shift: some 50 ms).
+            tail = self.tail.with_pivot_shift(shift)
+        except FishtailKinematicsError as error:
+            self._refuse_pivot(str(error))
+            return
+        self.tail = tail
+        self.state.pivot_shift = tail.pivot_shift_m
+        self.state.swing_bias = tail.swing_bias_rad
+        self.markers.set_tail(tail)
+
+    def _refuse_pivot(self, reason: str) -> None:
+        self.pivot_refused += 1
+        self._pivot_refusal = (
+            f"{PIVOT_JOINT_STATE.name} refused, solving with the pivot shifted "
+            f"{self.tail.pivot_shift_m!r} m: {reason}"
+        )
+        self._pivot_refusal_in_period = True
+        self.get_logger().warning(self._pivot_refusal, throttle_duration_sec=2.0)
 
     def _reject(self, reason: str, text: str) -> None:
         self.drops.count(reason)
@@ -312,9 +370,17 @@ class KinematicsNode(SuiteNodeBase):
             level, text = Level.STALE, f"no {INPUT_TOPIC} received recently"
         elif level == Level.OK:
             text = f"{self._geometry_text()}; {text}"
+        if self._pivot_refusal_in_period:
+            text = f"{self._pivot_refusal}; {text}"
+            if level == Level.OK:
+                level = Level.WARN
+        self._pivot_refusal_in_period = False
         values = {
             "received": str(self.received),
             "rejected": str(self.drops.dropped),
+            "pivot_shift_m": f"{self.tail.pivot_shift_m!r}",
+            "swing_bias_deg": f"{math.degrees(self.tail.swing_bias_rad):.6f}",
+            "pivot_refused": str(self.pivot_refused),
             **input_values,
         }
         self.diagnostics_publisher.publish(

@@ -26,6 +26,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from fishtail_common.interface import TAIL_MARKERS
 from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import ListenedPublisher
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import LinkageState
 from fishtail_kinematics.engine.markers import (
     LINE_LIST,
@@ -129,6 +130,22 @@ class TailMarkerPublisher:
         self.trail.clear()
         self._delete_all = True
         self._static_markers.clear()
+
+    def set_tail(self, tail: Tail) -> None:
+        """The same linkage with its pivot moved: the trail goes on, S is redrawn where it is.
+
+        The newest state is solved again with ``tail`` (a few us), so that the markers show the
+        new pose even while the carrier stands still.
+        """
+        self.tail = tail
+        self._static_markers.clear()
+        if self.latest is not None:
+            state, stamp = self.latest
+            try:
+                angle, speed = float(state.motor_angle), float(state.motor_velocity)
+                self.latest = (tail.solve(angle, speed), stamp)
+            except FishtailKinematicsError:
+                self.latest = None
 
     def on_tick(self) -> None:
         """Extend the trail from the newest state and publish the markers if anyone listens."""

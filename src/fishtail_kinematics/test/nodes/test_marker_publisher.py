@@ -128,6 +128,36 @@ def test_geometry_change_resets_the_trail_and_clears_rviz(node):
     assert node.markers.latest is not None
 
 
+def test_a_pivot_shift_redraws_s_where_it_is_and_keeps_the_trail(node):
+    from sensor_msgs.msg import JointState
+
+    from fishtail_common.interface import PIVOT_JOINT
+
+    for k in range(3):
+        node._on_motor_state(motor_message(0.5 * k, seconds=k))
+        node.markers.on_tick()
+    before = node.markers.build(*node.markers.latest)
+    pivots = next(m for m in before.markers if m.ns == "pivots")
+    g = OscillatoryGeometry()
+    assert pivots.points[1].x == pytest.approx(g.pivot_offset_m)
+
+    node._on_pivot_state(JointState(name=[PIVOT_JOINT], position=[0.02]))
+    assert node.tail.pivot_shift_m == 0.02
+    # The carrier has not moved: the newest pose is solved again with S shifted.
+    state, _ = node.markers.latest
+    assert state.motor_angle == 1.0 and state.tip_x == node.tail.solve(1.0, 4.0).tip_x
+    after = node.markers.build(*node.markers.latest)
+    assert all(marker.action == marker.ADD for marker in after.markers)  # no DELETEALL
+    pivots = next(m for m in after.markers if m.ns == "pivots")
+    assert pivots.points[1].x == pytest.approx(g.pivot_offset_m + 0.02)
+    tip = next(m for m in after.markers if m.ns == "tail_link").points[-1]
+    assert math.hypot(tip.x - g.pivot_offset_m - 0.02, tip.y) == pytest.approx(g.tail_link_m)
+    assert len(node.markers.trail) == 3
+    # A shift the engine refuses changes nothing.
+    node._on_pivot_state(JointState(name=[PIVOT_JOINT], position=[1.0]))
+    assert node.tail.pivot_shift_m == 0.02 and node.pivot_refused == 1
+
+
 def test_node_publishes_the_marker_array_in_its_frame(node):
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
