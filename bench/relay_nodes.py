@@ -163,7 +163,10 @@ class KinematicsRelay(SuiteNodeBase):
         self.joint_states = JointState(name=list(JOINT_NAMES[mechanism]))
         self.tip = PointStamped()
         self.tip.header.frame_id = TAIL_FRAME
-        self.state = TailState(mechanism=MECHANISM_CODES[mechanism])
+        # The unshifted pose of the zero carrier angle, as every other field here.
+        self.state = TailState(
+            mechanism=MECHANISM_CODES[mechanism], pivot_shift=0.0, swing_bias=0.0, fin_angle=0.0
+        )
         self.state.header.frame_id = TAIL_FRAME
         self.markers = MarkerArray(markers=[constant_marker(kind, points)
                                             for kind, points in MARKER_LAYOUT])  # fmt: skip

@@ -57,6 +57,10 @@ class StateStream:
             setattr(message, name, math.nan)  # as the kinematics node fills mechanism 1
         message.motor_angle = fields["motor_angle"]
         message.theta3 = fields["theta3"]
+        # No pivot shift: the fin's body-frame angle is theta3.
+        message.pivot_shift = 0.0
+        message.swing_bias = 0.0
+        message.fin_angle = fields["theta3"]
         message.tip.x = 0.35
         message.tip.y = 0.15 * math.sin(fields["theta3"])
         message.tip_velocity.y = 0.0

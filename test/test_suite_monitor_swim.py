@@ -35,7 +35,9 @@ class StateStream:
         """Create the publisher and the timer."""
         self.base_ns = base_ns
         self.k = 0
-        self.message = TailState(mechanism=TailState.MECHANISM_OSCILLATORY)
+        self.message = TailState(
+            mechanism=TailState.MECHANISM_OSCILLATORY, pivot_shift=0.0, swing_bias=0.0
+        )
         self.message.header.frame_id = "tail_mechanism"
         self.message.motor_velocity = SPEED_RAD_S
         for name in ("theta4", "theta4_dot", "theta5", "theta5_dot"):
@@ -55,6 +57,7 @@ class StateStream:
         theta3_dot = AMPLITUDE_RAD * SPEED_RAD_S * math.cos(SPEED_RAD_S * t)
         message.motor_angle = SPEED_RAD_S * t
         message.theta3 = theta3
+        message.fin_angle = theta3  # no pivot shift (pivot_shift = swing_bias = 0)
         message.tip.x = TIP_RADIUS_M * math.cos(theta3)
         message.tip.y = TIP_RADIUS_M * math.sin(theta3)
         message.tip_velocity.y = TIP_RADIUS_M * math.cos(theta3) * theta3_dot

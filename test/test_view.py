@@ -360,6 +360,7 @@ def write_bag(path: Path, seconds: float = 3.0, rate_hz: float = 200.0) -> Path:
                 theta4=math.nan, theta4_dot=math.nan, pin_u_distance=math.nan,
                 pin_u_distance_rate=math.nan, slider_a_distance=math.nan,
                 slider_a_distance_rate=math.nan, theta5=math.nan, theta5_dot=math.nan,
+                pivot_shift=0.0, swing_bias=0.0, fin_angle=s.fin_angle,
                 tip=point(x=s.tip_x, y=s.tip_y, z=0.0),
                 tip_velocity=vector(x=s.tip_x_dot, y=s.tip_y_dot, z=0.0),
             )  # fmt: skip

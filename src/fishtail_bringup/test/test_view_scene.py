@@ -119,7 +119,11 @@ def test_the_kinematics_node_markers_and_the_engine_specs_draw_the_same(tail):
 
 
 def tail_state(seconds: float, theta3: float, theta5: float, speed: float) -> TailState:
-    message = TailState(theta3=theta3, theta5=theta5, motor_velocity=speed)
+    fin_angle = theta3 if math.isnan(theta5) else theta5  # unshifted, as the kinematics node
+    message = TailState(
+        theta3=theta3, theta5=theta5, motor_velocity=speed, pivot_shift=0.0, swing_bias=0.0,
+        fin_angle=fin_angle,
+    )  # fmt: skip
     message.header.stamp = stamp(seconds)
     return message
 
@@ -167,7 +171,11 @@ def test_a_bag_state_redraws_the_linkage_with_its_trail():
     tail = OscillatoryTail(OscillatoryGeometry())
     drawing = TailFromState(tail, trail_length=3)
     for angle in (0.0, 0.1, 0.2, 0.3):
-        message = TailState(motor_angle=angle, motor_velocity=4.0)
+        state = tail.solve(angle, 4.0)
+        message = TailState(
+            motor_angle=angle, motor_velocity=4.0, pivot_shift=0.0, swing_bias=0.0,
+            fin_angle=state.fin_angle,
+        )  # fmt: skip
         primitives = drawing.primitives(message)
     trail = next(p for p in primitives if p.entity == "tail/tip_trail")
     expected = [(s.tip_x, s.tip_y) for s in (tail.solve(a) for a in (0.1, 0.2, 0.3))]
