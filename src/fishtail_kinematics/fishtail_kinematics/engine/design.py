@@ -1,4 +1,4 @@
-"""Design helpers: the symmetric rocker, swing range, assembly interval and the fin ratio mu.
+"""Design helpers: symmetric rocker, swing range, assembly interval, fin ratio mu, pivot shifts.
 
 >>> round(symmetric_rocker_link(0.1, 0.1, 0.2), 6)
 0.233926
@@ -130,6 +130,42 @@ def _fin_ratio_of(tail: Tail, samples: int) -> FinRatioFit:
         max_deviation_rad=float(np.max(np.abs(deviation))),
         local_ratio_min=float(ratio.min()),
         local_ratio_max=float(ratio.max()),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class PivotShiftEffect:
+    """What shifting the pivot S does to the swing (radians; see ``Tail.with_pivot_shift``)."""
+
+    shift_m: float
+    swing_bias_rad: float  # the swing's mid-line from the body axis
+    swing_range_rad: float  # theta3's range (RS, and ST or SW with it)
+    mid_stroke_theta3_rad: float  # theta3 at OP = 0: 0 for an evenly timed (symmetric) swing
+    fin_min_rad: float  # the last link (ST or VT) from the body axis, over a revolution
+    fin_max_rad: float
+    fin_mean_rad: float  # its mean over a revolution: over time at a steady carrier speed
+
+
+def pivot_shift_effect(
+    tail: Tail, shift_m: float, samples: int = FIN_RATIO_SAMPLES
+) -> PivotShiftEffect:
+    """The swing of ``tail`` with its pivot shifted by ``shift_m`` (PivotShiftError if it cannot).
+
+    The fin's extremes and mean come from ``samples`` carrier angles evenly over a revolution.
+    """
+    shifted = tail.with_pivot_shift(shift_m)
+    drive = shifted.drive
+    fin = np.asarray(
+        shifted.solve(np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)).fin_angle
+    )
+    return PivotShiftEffect(
+        shift_m=shifted.pivot_shift_m,
+        swing_bias_rad=shifted.swing_bias_rad,
+        swing_range_rad=drive.swing_range_rad,
+        mid_stroke_theta3_rad=drive.theta2_at(0.0) - drive.theta2_mid,
+        fin_min_rad=float(fin.min()),
+        fin_max_rad=float(fin.max()),
+        fin_mean_rad=float(fin.mean()),
     )
 
 

@@ -1,4 +1,4 @@
-"""``fishtail-kinematics``: one cycle as CSV, the report's figures, an animation, a design summary.
+"""``fishtail-kinematics``: a cycle as CSV, figures, an animation, design and pivot-shift tables.
 
 Geometry comes from a ROS 2 parameter file (``--config config/oscillatory.yaml``, the same file the
 nodes load) and/or flags named after the parameters (``--pivot-offset-m 0.18``); flags win. Bad
@@ -18,7 +18,7 @@ from typing import TextIO
 import numpy as np
 
 from fishtail_kinematics.engine import design
-from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_kinematics.engine.errors import FishtailKinematicsError, PivotShiftError
 from fishtail_kinematics.engine.geometry import (
     GEOMETRY_PARAMETERS,
     FloatArray,
@@ -118,6 +118,13 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--speed", type=_speed, default=REPORT_SPEED_RAD_S, help="carrier rad/s (4)")
     plot.add_argument("--output-dir", type=Path, default=Path("figures"))
     commands.add_parser("design", parents=[geometry], help="symmetric RS, range, assembly, mu")
+    pivot = commands.add_parser(
+        "pivot", parents=[geometry], help="swing bias and range against the pivot shift (Markdown)"
+    )
+    pivot.add_argument(
+        "--shifts-mm", type=_number, nargs="+", default=[-40.0, -30.0, -20.0, -10.0, 0.0, 10.0,
+        20.0, 30.0, 40.0], help="pivot shifts of S in mm, + towards the tail (-40 ... 40 by 10)",
+    )  # fmt: skip
     animate = commands.add_parser(
         "animate", parents=[geometry], help="one carrier revolution as an animated GIF"
     )
@@ -227,6 +234,33 @@ def run_design(arguments: argparse.Namespace, out: TextIO) -> None:
         print(f"{name}: {text}", file=out)
 
 
+def run_pivot(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Print the feasible pivot shifts and a Markdown table of the swing at each given shift."""
+    tail = make_tail(geometry_from_arguments(arguments))
+    low, high = tail.pivot_shift_range()
+    print(f"mechanism: {tail.name}", file=out)
+    print(f"feasible pivot shifts: {1e3 * low:+.3f} mm < shift < {1e3 * high:+.3f} mm", file=out)
+    print(
+        "| shift mm | swing bias deg | swing range deg | theta3 at mid-stroke deg "
+        "| fin angle min / max deg | fin mean deg |\n|---:|---:|---:|---:|---:|---:|",
+        file=out,
+    )
+    for shift_mm in arguments.shifts_mm:
+        try:
+            e = design.pivot_shift_effect(tail, 1e-3 * shift_mm)
+        except PivotShiftError:
+            print(f"| {shift_mm:+g} | cannot assemble | | | | |", file=out)
+            continue
+        print(
+            f"| {shift_mm:+g} | {math.degrees(e.swing_bias_rad):+.3f} "
+            f"| {math.degrees(e.swing_range_rad):.3f} "
+            f"| {math.degrees(e.mid_stroke_theta3_rad):+.3f} "
+            f"| {math.degrees(e.fin_min_rad):+.2f} / {math.degrees(e.fin_max_rad):+.2f} "
+            f"| {math.degrees(e.fin_mean_rad):+.3f} |",
+            file=out,
+        )
+
+
 def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
     """Write one carrier revolution as an animated GIF and print its path."""
     path = arguments.gif_path
@@ -250,6 +284,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "table": run_table,
         "plot": run_plot,
         "design": run_design,
+        "pivot": run_pivot,
         "animate": run_animate,
     }[arguments.command]
     try:

@@ -12,11 +12,13 @@ from fishtail_kinematics.engine.design import (
     assembly_interval,
     design_summary,
     fit_fin_ratio,
+    pivot_shift_effect,
     swing_range_vs_pivot_offset,
     symmetric_rocker_link,
 )
-from fishtail_kinematics.engine.errors import DesignError
+from fishtail_kinematics.engine.errors import DesignError, PivotShiftError
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
+from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 
 REPORT_RS = math.sqrt(0.1**2 + 0.2 * math.hypot(0.2, 0.1))
 # The symmetric RS of this drive leaves theta2 non-monotone (stationary inside the stroke).
@@ -198,3 +200,37 @@ def test_design_summary_without_symmetric_rocker():
     summary = design_summary(OscillatoryGeometry(**NON_MONOTONE_SYMMETRIC, rocker_link_m=rs))
     assert str(summary["symmetric_rocker_link_m"]).startswith("none (")
     assert summary["theta2_monotone"] is False
+
+
+def test_pivot_shift_effect_of_the_report_drive():
+    """The fin's extremes are the bias -+ half the range, exactly.
+
+    Where theta2 is monotone its extremes sit at OP = -R and R, which a revolution of samples
+    starting at phi = 0 contains.
+    """
+    tail = OscillatoryTail(OscillatoryGeometry())
+    unshifted = pivot_shift_effect(tail, 0.0)
+    assert unshifted.swing_bias_rad == 0.0
+    assert unshifted.mid_stroke_theta3_rad == pytest.approx(0.0, abs=1e-12)  # symmetric design
+    assert unshifted.swing_range_rad == pytest.approx(2 * math.atan(0.5), abs=1e-12)
+    shifted = pivot_shift_effect(tail, 0.02)
+    half = math.atan(0.1 / 0.22)
+    assert shifted.swing_range_rad == pytest.approx(2 * half, abs=1e-12)
+    assert shifted.swing_bias_rad == tail.with_pivot_shift(0.02).swing_bias_rad
+    assert shifted.fin_max_rad == pytest.approx(shifted.swing_bias_rad + half, abs=1e-12)
+    assert shifted.fin_min_rad == pytest.approx(shifted.swing_bias_rad - half, abs=1e-12)
+    assert shifted.fin_min_rad < shifted.fin_mean_rad < shifted.fin_max_rad
+    with pytest.raises(PivotShiftError):
+        pivot_shift_effect(tail, -0.1)
+
+
+def test_pivot_shift_effect_of_mechanism_2_takes_the_fin_link():
+    tail = UndulatoryTail(UndulatoryGeometry())
+    effect = pivot_shift_effect(tail, -0.03, samples=720)
+    fin = tail.with_pivot_shift(-0.03).solve(np.linspace(0.0, 2 * math.pi, 720, endpoint=False))
+    assert effect.fin_max_rad == float(fin.theta5.max())
+    assert effect.fin_mean_rad == pytest.approx(float(fin.theta5.mean()), abs=1e-15)
+    assert (
+        effect.swing_bias_rad
+        == pivot_shift_effect(OscillatoryTail(OscillatoryGeometry()), -0.03).swing_bias_rad
+    )

@@ -103,6 +103,28 @@ def test_design_prints_the_report_figures(capsys):
     assert values["mechanism"] == "undulatory"
 
 
+def test_pivot_prints_the_feasible_range_and_a_markdown_table(capsys):
+    status, out, _ = run(
+        capsys, "pivot", "--config", str(CONFIG / "oscillatory.yaml"), "--shifts-mm", "-70", "0",
+        "20",
+    )  # fmt: skip
+    assert status == 0
+    lines = out.splitlines()
+    assert lines[0] == "mechanism: oscillatory"
+    # |RS - PR| - OS and sqrt((RS + PR)^2 - R^2) - OS for the report's symmetric drive.
+    assert lines[1] == "feasible pivot shifts: -66.074 mm < shift < +118.601 mm"
+    assert lines[2].startswith("| shift mm | swing bias deg |") and lines[3].startswith("|---:")
+    assert lines[4] == "| -70 | cannot assemble | | | | |"
+    assert lines[5].startswith("| +0 | +0.000 | 53.130 | +0.000 |")
+    bias = math.degrees(
+        OscillatoryTail(OscillatoryGeometry()).with_pivot_shift(0.02).swing_bias_rad
+    )
+    assert lines[6].startswith(
+        f"| +20 | {bias:+.3f} | {math.degrees(2 * math.atan(0.1 / 0.22)):.3f} |"
+    )
+    assert len(lines) == 7
+
+
 @pytest.mark.parametrize("mechanism", ["oscillatory", "undulatory"])
 def test_plot_writes_the_report_figures(capsys, tmp_path, mechanism):
     status, out, _ = run(
