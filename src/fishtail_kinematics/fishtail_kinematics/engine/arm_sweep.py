@@ -125,18 +125,21 @@ def last_working_shift(
 ) -> float:
     """The shift nearest ``limit`` up to which ``works`` holds, coming from zero (where it does).
 
-    ``works`` is tried at ``grid_steps`` - 1 shifts between zero and ``limit`` (exclusive); at the
+    ``works`` is tried at ``grid_steps`` - 1 shifts between zero and ``limit``, then within
+    ``tolerance`` of ``limit`` (``limit`` itself is open: there the drive cannot assemble); at the
     first that fails, bisection with the last that worked narrows the boundary to ``tolerance``
     and the working side is returned. If none fails, ``limit`` itself.
 
     >>> round(last_working_shift(lambda shift: shift < 0.0123, 0.1, 64, 1e-9), 6)
     0.0123
+    >>> round(last_working_shift(lambda shift: shift < 0.09995, 0.1, 64, 1e-9), 6)
+    0.09995
     >>> last_working_shift(lambda shift: True, -0.05, 64, 1e-9)
     -0.05
     """
     good = 0.0
-    for step in range(1, grid_steps):
-        shift = limit * step / grid_steps
+    trials = [limit * step / grid_steps for step in range(1, grid_steps)]
+    for shift in [*trials, limit - math.copysign(tolerance, limit)]:
         if not works(shift):
             bad = shift
             break

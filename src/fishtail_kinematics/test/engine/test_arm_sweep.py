@@ -65,7 +65,7 @@ def test_samples_keep_both_ends_and_thin_the_rest():
     assert len(everything) == round(0.35 / SWEEP_STEP_RAD) + 5
 
 
-@pytest.mark.parametrize("boundary", [0.0123, -0.047])
+@pytest.mark.parametrize("boundary", [0.0123, -0.047, 0.09999, -0.0999999])
 def test_the_last_working_shift_is_found_to_the_tolerance_on_the_working_side(boundary):
     limit = math.copysign(0.1, boundary)
     found = last_working_shift(lambda shift: abs(shift) < abs(boundary), limit, 64, 1e-9)
