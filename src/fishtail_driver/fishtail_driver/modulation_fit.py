@@ -50,6 +50,8 @@ FloatArray = npt.NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
 #: Fewer samples than this in a revolution: too few for a fit of three coefficients.
 MIN_SAMPLES_PER_REVOLUTION = 12
+#: A revolution with a wider gap between two samples is not fitted.
+MAX_GAP_RAD = math.pi / 6.0
 
 
 def wrap_angle(angle_rad: float) -> float:
@@ -62,6 +64,8 @@ def wrap_angle(angle_rad: float) -> float:
 class RevolutionFit:
     """The modulation achieved over one revolution."""
 
+    #: Which revolution since the first sample (0 the first).
+    index: int
     start_time_s: float
     duration_s: float
     #: 2 pi / duration.
@@ -86,6 +90,8 @@ class FollowingResult:
 
     commanded: CarrierSpeedProfile
     revolutions: tuple[RevolutionFit, ...]
+    #: Whole revolutions recorded but not fitted (too few samples, a gap).
+    left_out: int = 0
 
     @property
     def depth(self) -> float:
@@ -131,12 +137,20 @@ class FollowingResult:
 
 
 def speeds_from_angles(times_s: npt.ArrayLike, angles_rad: npt.ArrayLike) -> FloatArray:
-    """The speed at each sample from its neighbours' angles (one-sided at the ends)."""
+    """The speed at each sample: its neighbours' angle difference over their time difference.
+
+    One-sided at the ends. The plain difference, not a higher-order formula for uneven spacing,
+    which amplifies the encoder's quantisation where two samples come close together.
+    """
     times = np.asarray(times_s, dtype=float)
     angles = np.asarray(angles_rad, dtype=float)
     if times.size < 2:
         raise ValueError("speeds from angles need at least two samples")
-    return np.asarray(np.gradient(angles, times), dtype=float)
+    speeds = np.empty_like(angles)
+    speeds[1:-1] = (angles[2:] - angles[:-2]) / (times[2:] - times[:-2])
+    speeds[0] = (angles[1] - angles[0]) / (times[1] - times[0])
+    speeds[-1] = (angles[-1] - angles[-2]) / (times[-1] - times[-2])
+    return speeds
 
 
 def _fit(angles: FloatArray, speeds: FloatArray, weights: FloatArray) -> tuple[float, float, float]:
@@ -148,14 +162,18 @@ def _fit(angles: FloatArray, speeds: FloatArray, weights: FloatArray) -> tuple[f
 
 
 def fit_revolutions(
-    times_s: npt.ArrayLike, angles_rad: npt.ArrayLike, speeds_rad_s: npt.ArrayLike
+    times_s: npt.ArrayLike,
+    angles_rad: npt.ArrayLike,
+    speeds_rad_s: npt.ArrayLike,
+    max_gap_rad: float = MAX_GAP_RAD,
 ) -> list[RevolutionFit]:
     """One fit per whole revolution, counted from the first sample's angle.
 
     The angles are the unwrapped carrier angle (increasing: a one-way motor). A revolution spans
     [phi_start + 2 pi k, phi_start + 2 pi (k + 1)); the last, incomplete one is left out, and so
-    is a revolution with fewer than :data:`MIN_SAMPLES_PER_REVOLUTION` samples. Its duration is
-    interpolated between the samples around its two ends.
+    is a revolution with fewer than :data:`MIN_SAMPLES_PER_REVOLUTION` samples or with a gap
+    wider than ``max_gap_rad`` between two samples (a stalled recorder: the fit would guess
+    across it). Its duration is interpolated between the samples around its two ends.
     """
     times = np.asarray(times_s, dtype=float)
     angles = np.asarray(angles_rad, dtype=float)
@@ -175,12 +193,16 @@ def fit_revolutions(
         inside = np.flatnonzero(turns == turn)
         if inside.size < MIN_SAMPLES_PER_REVOLUTION:
             continue
+        around = angles[max(inside[0] - 1, 0) : inside[-1] + 2]
+        if np.max(np.diff(around)) > max_gap_rad:
+            continue
         start_angle = angles[0] + TWO_PI * turn
         start_s = float(np.interp(start_angle, angles, times))
         end_s = float(np.interp(start_angle + TWO_PI, angles, times))
         offset, cosine, sine = _fit(angles[inside], speeds[inside], np.maximum(spans[inside], 0.0))
         fits.append(
             RevolutionFit(
+                index=turn,
                 start_time_s=start_s,
                 duration_s=end_s - start_s,
                 mean_speed_rad_s=TWO_PI / (end_s - start_s),
@@ -205,10 +227,16 @@ def measure_following(
     ``skip_revolutions`` leaves out the first ones (the motor settling after the command changed).
     ValueError when no whole revolution remains.
     """
-    fits = fit_revolutions(times_s, angles_rad, speeds_rad_s)[skip_revolutions:]
+    angles = np.asarray(angles_rad, dtype=float)
+    fits = [
+        fit
+        for fit in fit_revolutions(times_s, angles, speeds_rad_s)
+        if fit.index >= skip_revolutions
+    ]
     if not fits:
         raise ValueError("no whole revolution with enough samples to measure the modulation")
-    return FollowingResult(commanded, tuple(fits))
+    whole = int((angles[-1] - angles[0]) // TWO_PI)
+    return FollowingResult(commanded, tuple(fits), whole - skip_revolutions - len(fits))
 
 
 @dataclasses.dataclass(frozen=True)

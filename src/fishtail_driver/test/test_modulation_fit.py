@@ -90,6 +90,20 @@ def test_incomplete_and_sparse_revolutions_are_left_out():
     assert fit_revolutions(times[sparse], angles[sparse], speeds[sparse]) == []
 
 
+def test_a_revolution_with_a_gap_is_left_out_and_counted():
+    """A recorder that stalled for 60 degrees: the fit would guess across the gap."""
+    profile = CarrierSpeedProfile(2.0, 0.5, 0.0)
+    times = np.arange(0.0, 5.5 * 2 * math.pi / 2.0, 0.01)
+    angles, speeds, _ = profile.motion()(times)
+    stalled = (angles > 2 * 2 * math.pi + 1.0) & (angles < 2 * 2 * math.pi + 1.0 + math.pi / 3)
+    kept = ~stalled
+    fits = fit_revolutions(times[kept], angles[kept], speeds[kept])
+    assert [fit.index for fit in fits] == [0, 1, 3, 4]
+    result = measure_following(times[kept], angles[kept], speeds[kept], profile, 1)
+    assert [fit.index for fit in result.revolutions] == [1, 3, 4] and result.left_out == 1
+    assert result.depth == pytest.approx(0.5, abs=1e-3)
+
+
 def test_speeds_from_angles_follow_the_modulation_without_delay():
     profile = CarrierSpeedProfile(4 * ONE_HZ, 0.5, 0.0)  # a 4 Hz beat
     times = np.arange(0.0, 1.0, 0.01)  # 100 samples a second
