@@ -6,8 +6,9 @@ and its velocity relative to the body, the fin's angle to the x axis and its rat
 a fish's fin has a chord (the recoil term), their accelerations.
 
 * :class:`EngineTailDrive`: either mechanism of the kinematics engine through its :class:`Tail`
-  surface; the fin angle is the last link's (``Tail.fin_angle_field``: theta3 or theta5) and the
-  carrier turns as phi(t) (``constant_carrier_speed``: phi = phi_dot t).
+  surface; the fin angle is the last link's angle to the body axis (``Tail.fin_angle_field``:
+  theta3, plus the swing bias of a shifted pivot, or theta5) and the carrier turns as phi(t)
+  (``constant_carrier_speed``: phi = phi_dot t).
 * :class:`SinusoidalTailDrive`: the servo fish of the literature, a rigid fin of length l_fin
   pivoting at O with theta(t) = alpha0 + alpha_a sin(omega t).
 
