@@ -48,6 +48,8 @@ class OscillatoryTail(Tail):
 
     Construction validates the geometry (raises :class:`AssemblyError` naming the failed condition)
     and finds the exact swing extremes of theta2, also where theta2 is not monotone in OP.
+    :meth:`with_pivot_shift` gives the same linkage with S moved along the body axis: theta3 is
+    then measured from the shifted swing's mid-line and ``fin_angle`` from the body axis.
     """
 
     name = OSCILLATORY
