@@ -109,7 +109,7 @@ def test_a_turn_beyond_reach_is_reported_with_the_achievable_rate(start_node, ro
     assert "beyond reach" in status.message
 
 
-def test_odometry_that_stops_stops_the_carrier_with_an_error(start_node, ros):
+def test_odometry_that_stops_stops_the_carrier_until_it_is_back(start_node, ros):
     profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
     diagnostics = ros.record_diagnostics()
     start_pilot(start_node, ros, cmd_timeout_sec=0.0, odom_timeout_sec=0.3)
@@ -126,4 +126,10 @@ def test_odometry_that_stops_stops_the_carrier_with_an_error(start_node, ros):
         lambda: any(level == Level.ERROR for _, level, _ in ros.statuses(diagnostics, "pilot")),
         TIMEOUT_S,
         "an ERROR status",
+    )
+    # The command stands: with odometry back, the carrier runs again.
+    count = len(profiles)
+    fish.running = True
+    ros.spin_until(
+        lambda: any(p.mean_speed > 0.0 for p in profiles[count:]), TIMEOUT_S, "the carrier again"
     )

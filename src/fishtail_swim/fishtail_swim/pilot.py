@@ -166,6 +166,11 @@ CONTROL_PARAMETERS: tuple[ParameterSpec, ...] = (
 GOAL_TOLERANCE = next(spec for spec in CONTROL_PARAMETERS if spec.name == "goal_tolerance_m")
 
 
+#: The profile's peak stays this fraction below the carrier's top speed.
+PEAK_MARGIN = 1e-9
+#: The longest step the speed loop's integral takes (s): after a gap in the odometry, the loop
+#: resumes instead of jumping by the whole gap's error.
+MAX_CONTROL_STEP_S = 0.2
 #: The lowest carrier speed while a speed is wanted, as a share of the feed-forward's.
 MIN_FEED_FORWARD_SHARE = 0.5
 #: A goal closer than this many tightest turning radii to the turning circle's centre is inside
@@ -279,7 +284,8 @@ class Pilot:
         self.mean_speed_m_s = self._speed.mean(window)
         self.mean_heading_rad = self._heading.mean(window)
         self.position_m = (x_m, y_m)
-        dt = 0.0 if self._last_time_s is None else max(0.0, time_s - self._last_time_s)
+        dt = 0.0 if self._last_time_s is None else time_s - self._last_time_s
+        dt = min(max(dt, 0.0), MAX_CONTROL_STEP_S)
         self._last_time_s = time_s
         if self.mode is Mode.IDLE:
             return self.command
@@ -362,7 +368,12 @@ class Pilot:
         # The profile's peak must stay within the carrier's top speed: a deep modulation costs
         # mean speed.
         depth = steering.depth
-        ceiling = settings.max_carrier_speed_rad_s * math.sqrt((1.0 - depth) / (1.0 + depth))
+        # A hair below the limit, so that rounding cannot put the peak above the driver's.
+        ceiling = (
+            settings.max_carrier_speed_rad_s
+            * math.sqrt((1.0 - depth) / (1.0 + depth))
+            * (1.0 - PEAK_MARGIN)
+        )
         # The carrier never drops below half the feed-forward while a speed is wanted: a stopped
         # tail cannot steer, and, held off the axis, it is a rudder that turns the gliding fish.
         floor = min(MIN_FEED_FORWARD_SHARE * slope * wanted, ceiling)

@@ -18,7 +18,9 @@ The control law is :class:`fishtail_swim.pilot.Pilot`; the steering means and it
 tail and fish parameters (the same parameter files as the simulator's) are built at start-up by
 :func:`fishtail_swim.steering.steering_from_values`. The watchdog stops the carrier when no
 ``cmd_vel`` arrives for ``cmd_timeout_sec`` (a goal needs no repeating); a new ``cmd_vel`` cancels
-a goal. The pivot keeps its position when the carrier stops.
+a goal. Without odometry for ``odom_timeout_sec`` the carrier stops until it is back (ERROR on
+/diagnostics meanwhile); the command or goal stands. The pivot keeps its position when the
+carrier stops.
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ from fishtail_common.ros import (
     qos_profile,
     run_node,
 )
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_msgs.msg import CarrierSpeedProfile as ProfileMessage
 from fishtail_swim.dynamics.errors import SwimError
@@ -62,6 +65,7 @@ from fishtail_swim.steering import STEERING_PARAMETERS, steering_from_values
 from fishtail_swim.tail_and_fish import TAIL_PARAMETERS, fish_from_values, tail_from_values
 
 DIAGNOSTICS_PERIOD_S = 1.0
+STOPPED = CarrierSpeedProfile(0.0)
 CMD_TIMEOUT = ParameterSpec(
     "cmd_timeout_sec", 0.5,
     "stop the carrier when no cmd_vel arrives for this long (0: never; goals need no repeating)",
@@ -172,7 +176,9 @@ class PilotNode(SuiteNodeBase):
     def _on_odom(self, message: Odometry) -> None:
         now_ns = self._now_ns()
         self.last_odom_ns = now_ns
-        self.odometry_lost = False
+        if self.odometry_lost:
+            self.odometry_lost = False
+            self.get_logger().info(f"{FISH_ODOM.name} is back: {self.pilot.mode.value} resumed")
         stamp = message.header.stamp
         pose = message.pose.pose
         orientation = pose.orientation
@@ -223,12 +229,15 @@ class PilotNode(SuiteNodeBase):
             self._send(pilot.stop(), now_ns, force=True)
         if (
             pilot.mode is not Mode.IDLE
+            and not self.odometry_lost
             and self.last_odom_ns is not None
             and now_ns - self.last_odom_ns > self.odom_timeout_ns
         ):
+            # Blind, the carrier stops; the command or the goal stands, and the pilot resumes
+            # when odometry comes back.
             self.odometry_lost = True
-            self.get_logger().error(f"no {FISH_ODOM.name}: stopping the carrier")
-            self._send(pilot.stop(), now_ns, force=True)
+            self.get_logger().error(f"no {FISH_ODOM.name}: carrier stopped until it is back")
+            self._send(PilotCommand(STOPPED, pilot.command.pivot_shift_m), now_ns, force=True)
 
     def _on_diagnostics(self) -> None:
         pilot = self.pilot
