@@ -7,11 +7,15 @@
     ros2 launch fishtail_bringup fishtail.launch.py view:=true   # and the live view (Rerun)
     ros2 launch fishtail_bringup fishtail.launch.py motor_model:=dc motor_load:=water_swimming
     ros2 launch fishtail_bringup fishtail.launch.py one_process:=true  # the nodes in one process
+    ros2 launch fishtail_bringup fishtail.launch.py pilot:=true  # simulator and pilot (cmd_vel)
+    ros2 launch fishtail_bringup fishtail.launch.py pilot:=true steering:=pivot
 
 The launch file does not command the motor: publish the carrier speed yourself, e.g.
     ros2 topic pub -r 10 motor/cmd_speed std_msgs/msg/Float64 "{data: 4.0}"
-(the driver's watchdog stops the motor when commands stop). Machines without ros2 launch use
-`fishtail-run`, which also commands the speed and shows a live console.
+(the driver's watchdog stops the motor when commands stop), or, with ``pilot:=true``, a velocity
+or a goal for the pilot (``cmd_vel`` Twist, ``goal_pose`` from RViz's 2D Goal Pose tool).
+Machines without ros2 launch use `fishtail-run`, which also commands the speed and shows a live
+console.
 """
 
 from launch import LaunchDescription
@@ -23,14 +27,16 @@ from launch.substitutions import (
     IfElseSubstitution,
     LaunchConfiguration,
     NotSubstitution,
+    OrSubstitution,
     PathJoinSubstitution,
 )
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from fishtail_common.interface import SUITE_NODES, SWIM_NODE, VIEW_NODE
+from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, VIEW_NODE
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
+from fishtail_swim.steering import PIVOT_STEERING, STEERING
 
 
 def dc_motor_encoder(motor_model):
@@ -73,7 +79,9 @@ def generate_launch_description():
     encoder), ``motor_load`` makes it turn the tail of ``params_file`` (and the fish of
     ``fish_params_file``, which the driver reads too). ``one_process:=true`` starts one process
     (``fishtail-one-process``) that hosts the nodes, the simulator too with ``swim:=true``, on one
-    executor, each with the same parameters; the view keeps its own process.
+    executor, each with the same parameters; the view keeps its own process. ``pilot:=true`` adds
+    the simulator and the pilot (its own process), steering by ``steering``; with ``pivot`` the
+    driver gets its simulated pivot actuator.
     """
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
@@ -86,10 +94,14 @@ def generate_launch_description():
     ]
     fish_params_file = LaunchConfiguration("fish_params_file")
     motor_model = LaunchConfiguration("motor_model")
+    pilot = LaunchConfiguration("pilot")
+    steering = LaunchConfiguration("steering")
+    pivot_steering = AndSubstitution(pilot, EqualsSubstitution(steering, PIVOT_STEERING))
     driver = {
         "backend": LaunchConfiguration("backend"),
         "motor_model": motor_model,
         "motor_load": LaunchConfiguration("motor_load"),
+        "pivot_actuator": IfElseSubstitution(pivot_steering, "sim", "none"),
     }
     # The driver declares the fish's parameters only with a motor_load; without one it ignores
     # them, as every node ignores the parameters of a file that it does not declare.
@@ -99,8 +111,10 @@ def generate_launch_description():
         for node in SUITE_NODES
     }
     parameters[SWIM_NODE] = [params_file, fish_params_file]
+    parameters[PILOT_NODE] = [params_file, fish_params_file, {STEERING.name: steering}]
     one_process = LaunchConfiguration("one_process")
-    swim = LaunchConfiguration("swim")
+    # The pilot flies the simulated fish: it brings the simulator.
+    swim = OrSubstitution(LaunchConfiguration("swim"), pilot)
     separate = NotSubstitution(one_process)
     nodes = [
         Node(
@@ -137,6 +151,15 @@ def generate_launch_description():
         parameters=parameters[SWIM_NODE],
         output="screen",
         condition=IfCondition(AndSubstitution(swim, separate)),
+    )
+    pilot_node = Node(
+        package=PILOT_NODE.package,
+        executable=PILOT_NODE.executable,
+        name=PILOT_NODE.name,
+        namespace=namespace,
+        parameters=parameters[PILOT_NODE],
+        output="screen",
+        condition=IfCondition(pilot),
     )
     view = Node(
         package=VIEW_NODE.package,
@@ -195,9 +218,23 @@ def generate_launch_description():
                 description="true: the nodes in one process on one executor (fishtail-one-process: "
                 "about half the CPU at 1 kHz, less latency; a crash in one node ends them all)",
             ),
+            DeclareLaunchArgument(
+                "pilot",
+                default_value="false",
+                description="true: also start the simulator and the pilot (fishtail_swim pilot: "
+                "cmd_vel and goal_pose in, the carrier's profile out)",
+            ),
+            DeclareLaunchArgument(
+                "steering",
+                default_value=str(STEERING.default),
+                description="the pilot's steering: "
+                + " or ".join(STEERING.choices)
+                + " (pivot gives the driver its simulated pivot actuator)",
+            ),
             *nodes,
             *containers,
             simulator,
+            pilot_node,
             view,
         ]
     )

@@ -60,13 +60,15 @@ def test_declares_the_arguments(description):
     names = [argument.name for argument in description.get_launch_arguments()]
     assert names == [
         "mechanism", "params_file", "namespace", "backend", "motor_model", "motor_load", "swim",
-        "fish_params_file", "view", "one_process",
+        "fish_params_file", "view", "one_process", "pilot", "steering",
     ]  # fmt: skip
 
 
 def test_launches_the_three_nodes_of_the_packages(description):
     context = launch.LaunchContext()
-    context.launch_configurations.update(one_process="false", swim="false", view="false")
+    context.launch_configurations.update(
+        one_process="false", swim="false", view="false", pilot="false"
+    )
     nodes = [
         e
         for e in description.entities
@@ -101,13 +103,14 @@ def test_default_params_file_resolves_to_the_installed_config(description, mecha
 @pytest.mark.parametrize(("swim", "launched"), [("false", False), ("true", True)])
 def test_swim_adds_the_simulator_with_the_installed_fish(description, swim, launched):
     context = launch.LaunchContext()
-    context.launch_configurations.update(swim=swim, one_process="false")
+    context.launch_configurations.update(swim=swim, one_process="false", pilot="false")
     (simulator,) = [
         e
         for e in description.entities
         if isinstance(e, launch_ros_actions.Node)
         and e.condition is not None
         and e.node_package == "fishtail_swim"
+        and e.node_executable == "sim"
     ]
     assert (simulator.node_package, simulator.node_executable) == ("fishtail_swim", "sim")
     assert "sim" in console_scripts("fishtail_swim")
@@ -163,7 +166,8 @@ def test_one_process_hosts_the_nodes_with_their_own_parameters(description, swim
     context.launch_configurations.update(
         one_process="true", swim=swim, view="false", mechanism="oscillatory",
         params_file="tail.yaml", fish_params_file="fish.yaml", motor_model="dc",
-        backend="sim", motor_load="water_held", namespace="",
+        backend="sim", motor_load="water_held", namespace="", pilot="false",
+        steering="modulation",
     )  # fmt: skip
     launched = [
         e
@@ -182,10 +186,36 @@ def test_one_process_hosts_the_nodes_with_their_own_parameters(description, swim
     assert own["driver"] == [
         "--ros-args", "-p", "gear_ratio:=30.0", "-p", "encoder_counts_per_revolution:=64",
         "--params-file", "tail.yaml", "--params-file", "fish.yaml", "-p", "backend:=sim",
-        "-p", "motor_model:=dc", "-p", "motor_load:=water_held",
+        "-p", "motor_model:=dc", "-p", "motor_load:=water_held", "-p", "pivot_actuator:=none",
     ]  # fmt: skip
     assert own["kinematics"] == own["monitor"] == ["--ros-args", "--params-file", "tail.yaml"]
     if swim == "true":
         assert own["swim"] == [
             "--ros-args", "--params-file", "tail.yaml", "--params-file", "fish.yaml",
         ]  # fmt: skip
+
+
+@pytest.mark.parametrize(("steering", "actuator"), [("modulation", "none"), ("pivot", "sim")])
+def test_pilot_adds_the_simulator_and_the_pilot_with_its_steering(description, steering, actuator):
+    context = launch.LaunchContext()
+    context.launch_configurations.update(
+        one_process="false", swim="false", view="false", pilot="true", steering=steering,
+        params_file="tail.yaml", fish_params_file="fish.yaml", motor_model="first_order",
+        backend="sim", motor_load="none", namespace="",
+    )  # fmt: skip
+    launched = {
+        e.node_executable: e
+        for e in description.entities
+        if isinstance(e, launch_ros_actions.Node) and e.condition.evaluate(context)
+    }
+    assert {"driver", "node", "monitor", "sim", "pilot"} <= set(launched)
+    assert "pilot" in console_scripts("fishtail_swim")
+    # launch_ros keeps a Node's parameters private until it runs: read them where it keeps them.
+    (*files, pilot_values) = evaluate_parameters(
+        context, normalize_parameters(launched["pilot"]._Node__parameters)
+    )
+    assert pilot_values == {"steering": steering}
+    driver_values = evaluate_parameters(
+        context, normalize_parameters(launched["driver"]._Node__parameters)
+    )[-1]
+    assert driver_values["pivot_actuator"] == actuator
