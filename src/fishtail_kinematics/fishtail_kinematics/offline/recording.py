@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from fishtail_common.bag_types import register_package_types
+from fishtail_common.bag_reading import bag_typestore, describe_error, pick_topic, stamp_ns
 from fishtail_common.interface import (
     CARRIER_JOINT,
     MECHANISM_CODES,
@@ -77,12 +77,6 @@ class Recording:
     pivot_shift_m: FloatArray | None = None
 
 
-def describe_error(error: BaseException) -> str:
-    """An exception as one line without a trailing full stop."""
-    text = " ".join(str(error).split()) or type(error).__name__
-    return text.rstrip(".")
-
-
 def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
     """Read a rosbag2 bag (directory, .mcap or .db3) or a CSV of ``fishtail-kinematics table``."""
     path = Path(path)
@@ -103,30 +97,6 @@ def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
 # ---- bags
 
 
-def _typestore_for(connections: Sequence[Any]) -> Any:
-    """The Jazzy typestore plus the definitions the bag carries, plus installed fishtail_msgs."""
-    from rosbags.interfaces import MessageDefinitionFormat
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    store = get_typestore(Stores.ROS2_JAZZY)
-    for connection in connections:
-        definition = connection.msgdef
-        if (
-            connection.msgtype in store.fielddefs
-            or definition.format != MessageDefinitionFormat.MSG
-        ):
-            continue
-        types = get_types_from_msg(definition.data, connection.msgtype)
-        store.register(
-            {name: fields for name, fields in types.items() if name not in store.fielddefs}
-        )
-    try:
-        register_package_types(store, "fishtail_msgs")  # adds only what the bag did not carry
-    except LookupError:
-        pass  # not installed: the bag must carry the definitions (checked by the caller)
-    return store
-
-
 def _pick_topic(
     connections: Sequence[Any],
     msgtype: str,
@@ -134,26 +104,8 @@ def _pick_topic(
     namespace: str | None,
     any_name: bool = True,
 ) -> str | None:
-    """The topic of ``msgtype`` named ``<namespace>/<suffix>``.
-
-    Without such a name and with ``any_name``: the one topic of that type, if there is one.
-    """
-    topics = sorted({c.topic for c in connections if c.msgtype == msgtype})
-    if namespace is not None:
-        wanted = "/" + "/".join(p for p in (namespace.strip("/"), suffix) if p)
-        return wanted if wanted in topics else None
-    named = [t for t in topics if t == "/" + suffix or t.endswith("/" + suffix)]
-    candidates = named or (topics if any_name else [])
-    if len(candidates) > 1:
-        raise AnalysisError(
-            f"several {msgtype} topics ({', '.join(candidates)}): choose one with --namespace"
-        )
-    return candidates[0] if candidates else None
-
-
-def _stamp_ns(message: Any) -> int:
-    stamp = message.header.stamp
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    """The topic of ``msgtype`` named ``<namespace>/<suffix>`` (the shared ``pick_topic``)."""
+    return pick_topic(connections, msgtype, suffix, namespace, any_name, error=AnalysisError)
 
 
 def read_bag(path: Path, namespace: str | None = None) -> Recording:
@@ -193,7 +145,7 @@ def _read_bag(path: Path, namespace: str | None) -> Recording:
                 f"recording (topics: {listing})"
             )
         wanted = [c for c in connections if c.topic in (state_topic, joint_topic, report_topic)]
-        store = _typestore_for(connections)
+        store = bag_typestore(connections)
         for connection in wanted:
             if connection.msgtype not in store.fielddefs:
                 raise AnalysisError(
@@ -243,13 +195,13 @@ def _recording_from_messages(
         if index is None or index >= len(message.position):
             continue
         velocity = message.velocity[index] if index < len(message.velocity) else math.nan
-        carrier[_stamp_ns(message)] = (float(message.position[index]), float(velocity))
+        carrier[stamp_ns(message)] = (float(message.position[index]), float(velocity))
 
     state: dict[str, FloatArray]
     pivot_shift: FloatArray | None = None
     if states:
         states = _sorted_unique(states, notes, TAIL_STATE.name)
-        stamps = np.array([_stamp_ns(m) for m in states], dtype=np.int64)
+        stamps = np.array([stamp_ns(m) for m in states], dtype=np.int64)
         codes = Counter(int(m.mechanism) for m in states)
         if len(codes) > 1:
             notes.append(
@@ -316,7 +268,7 @@ def _recording_from_messages(
 def _sorted_unique(messages: list[Any], notes: list[str], topic: str) -> list[Any]:
     by_stamp: dict[int, Any] = {}
     for message in messages:
-        by_stamp.setdefault(_stamp_ns(message), message)
+        by_stamp.setdefault(stamp_ns(message), message)
     if len(by_stamp) < len(messages):
         notes.append(
             f"{len(messages) - len(by_stamp)} {topic} messages with repeated stamps ignored"

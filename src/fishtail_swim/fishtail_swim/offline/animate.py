@@ -10,6 +10,13 @@ The view is fixed on the whole path while the path, fish included, spans at most
 :data:`FIT_SPAN` fish widths; a longer path would make the fish a speck, so the view then follows
 C (the fish fills most of its height) and an inset shows the whole path and where the fish is.
 
+A recorded run (:func:`recorded_frames`, ``fishtail-swim animate --bag``) is drawn the same way
+from :class:`~fishtail_swim.offline.recorded_run.RecordedRun`: the pose, carrier angle and pivot
+shift of each frame interpolated from the bag, the linkage solved by a tail with that pivot shift
+(shifts rounded to :data:`PIVOT_SHIFT_STEP_M`, one solve per distinct shift), the goals sent so far
+as markers, the current one highlighted. Where the recording has a gap the frame's pose is NaN:
+the fish is not drawn and its path is broken.
+
 matplotlib draws on an Agg canvas (no pyplot, no display). As in ``fishtail_kinematics``' cycle
 animation, the still parts are drawn once and each frame on a copy of them: in the whole-path view
 all but the fish, its path and the title; a following view moves its limits, ticks and grid, so
@@ -30,6 +37,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.linkage_points import LinkagePoints
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_kinematics.offline.animation import MAX_FPS, MAX_FRAMES
 from fishtail_swim.dynamics.fish import FishParameters, FloatArray
@@ -41,6 +49,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from PIL.Image import Image
 
+    from fishtail_swim.offline.recorded_run import RecordedRun
+
 __all__ = [
     "FIGURE_SIZE_PX",
     "MAX_FPS",
@@ -49,6 +59,7 @@ __all__ = [
     "fish_frames",
     "follows_fish",
     "frame_times",
+    "recorded_frames",
     "write_gif",
 ]
 
@@ -61,6 +72,10 @@ FIT_SPAN = 3.0
 # Half the following view's height, in reaches: the fish turned across fills most of it.
 _FOLLOW_HALF_HEIGHT = 1.3
 _CIRCLE = np.linspace(0.0, 2.0 * math.pi, 73)
+#: A recorded run's pivot shifts are drawn rounded to this (far below a pixel): one tail each.
+PIVOT_SHIFT_STEP_M = 1e-4
+_NO_TIMES = np.zeros(0)
+_NO_POINTS = np.zeros((0, 2))
 
 
 class FishFrames(NamedTuple):
@@ -80,14 +95,20 @@ class FishFrames(NamedTuple):
     joints: FloatArray  # (F, k, 2) the joints that move
     tip: FloatArray  # (F, 2) tail tip T
     path_time_s: FloatArray  # (K,) the run's sample times
-    path: FloatArray  # (K, 2) C at the run's samples
+    path: FloatArray  # (K, 2) C at the run's samples; a NaN row breaks it (a gap)
     reach_m: float  # farthest drawn point from C over all frames
+    goal_time_s: FloatArray = _NO_TIMES  # (G,) when each goal was sent, increasing
+    goals: FloatArray = _NO_POINTS  # (G, 2)
 
     def path_until(self, frame: int) -> FloatArray:
         """C's path from the start to frame ``frame``, ``(k, 2)``, ending at the frame's C."""
         count = int(np.searchsorted(self.path_time_s, self.time_s[frame], side="left"))
         here = np.array([[self.x_m[frame], self.y_m[frame]]])
         return np.concatenate((self.path[:count], here))
+
+    def goals_until(self, frame: int) -> int:
+        """How many goals were sent at or before frame ``frame``; the last is the current one."""
+        return int(np.searchsorted(self.goal_time_s, self.time_s[frame], side="right"))
 
 
 def frame_times(duration_s: float, fps: float) -> FloatArray:
@@ -120,10 +141,69 @@ def fish_frames(
     def at_frames(column: int) -> FloatArray:
         return np.interp(times, time_s, state[:, column])
 
-    x, y, psi = at_frames(X), at_frames(Y), at_frames(PSI)
-    speed = np.hypot(at_frames(SURGE), at_frames(SWAY))
     angle = carrier_speed_rad_s * times
     points = tail.link_points(tail.solve(angle, np.full_like(angle, carrier_speed_rad_s)))
+    return _frames(
+        times, at_frames(X), at_frames(Y), at_frames(PSI),
+        np.hypot(at_frames(SURGE), at_frames(SWAY)), points, tail, fish,
+        np.asarray(time_s, dtype=np.float64), np.column_stack((state[:, X], state[:, Y])),
+    )  # fmt: skip
+
+
+def shifted_link_points(
+    tail: Tail,
+    carrier_angle_rad: FloatArray,
+    carrier_velocity_rad_s: FloatArray,
+    pivot_shift_m: FloatArray,
+) -> LinkagePoints:
+    """The linkage of each frame, ``tail`` with that frame's pivot shift (from the design).
+
+    Shifts are rounded to :data:`PIVOT_SHIFT_STEP_M` and each distinct one solved once; a frame
+    whose carrier angle is NaN gets NaN points (not drawn).
+    """
+    angle = np.asarray(carrier_angle_rad, dtype=np.float64)
+    velocity = np.nan_to_num(np.asarray(carrier_velocity_rad_s, dtype=np.float64))
+    drawn = np.isfinite(angle)
+    steps = np.round(
+        np.nan_to_num(np.asarray(pivot_shift_m, dtype=np.float64)) / PIVOT_SHIFT_STEP_M
+    )
+    template = tail.link_points(tail.solve(np.zeros(angle.size)))
+    points = type(template)(*(np.full_like(field, np.nan) for field in template))
+    for step in np.unique(steps[drawn]):
+        frames = drawn & (steps == step)
+        shifted = tail.with_pivot_shift(float(step) * PIVOT_SHIFT_STEP_M)
+        solved = shifted.link_points(shifted.solve(angle[frames], velocity[frames]))
+        for whole, part in zip(points, solved, strict=True):
+            whole[frames] = part
+    return points
+
+
+def recorded_frames(run: RecordedRun, tail: Tail, fish: FishParameters) -> FishFrames:
+    """The frames of a recorded run: its poses, its linkage drawn with ``tail``, its goals."""
+    points = shifted_link_points(
+        tail, run.carrier_angle_rad, run.carrier_velocity_rad_s, run.pivot_shift_m
+    )
+    return _frames(
+        run.time_s, run.x_m, run.y_m, run.psi_rad, run.speed_m_s, points, tail, fish,
+        run.path_time_s, run.path, run.goal_time_s, run.goals,
+    )  # fmt: skip
+
+
+def _frames(
+    times: FloatArray,
+    x: FloatArray,
+    y: FloatArray,
+    psi: FloatArray,
+    speed: FloatArray,
+    points: LinkagePoints,
+    tail: Tail,
+    fish: FishParameters,
+    path_time_s: FloatArray,
+    path: FloatArray,
+    goal_time_s: FloatArray = _NO_TIMES,
+    goals: FloatArray = _NO_POINTS,
+) -> FishFrames:
+    """The frames for these poses (NaN: not drawn) and linkage points (one state per frame)."""
     offset = _one(fish.tail_origin_offset_m)
     ring_radius = tail.geometry.ring_radius_m
     circle = np.column_stack((np.cos(_CIRCLE), np.sin(_CIRCLE)))
@@ -143,7 +223,11 @@ def fish_frames(
     joints = body(points.moving_joints())
     tip = body(points.tip[:, None, :])
     drawn = [hull, ring, planet, crank, *drive, tail_link, joints]
-    reach = max(float(np.hypot(p[..., 0], p[..., 1]).max()) for p in drawn) if frames else 0.0
+    reach = (
+        max(float(np.nanmax(np.hypot(p[..., 0], p[..., 1]), initial=0.0)) for p in drawn)
+        if frames
+        else 0.0
+    )
 
     def world(body_points: FloatArray) -> FloatArray:
         return body_to_world(body_points, x, y, psi)
@@ -162,17 +246,21 @@ def fish_frames(
         tail_link=world(tail_link),
         joints=world(joints),
         tip=world(tip)[:, 0, :],
-        path_time_s=np.asarray(time_s, dtype=np.float64),
-        path=np.column_stack((state[:, X], state[:, Y])),
+        path_time_s=path_time_s,
+        path=path,
         reach_m=reach,
+        goal_time_s=goal_time_s,
+        goals=goals,
     )
 
 
 def _extent(frames: FishFrames) -> tuple[FloatArray, FloatArray]:
-    """The lowest and highest world (x, y) of everything drawn, C's whole path included."""
+    """The lowest and highest world (x, y) of everything drawn, C's whole path and the goals."""
     drawn = [frames.outline, frames.ring, frames.tail_link, frames.joints, *frames.drive_links]
-    every = np.concatenate([p.reshape(-1, 2) for p in drawn] + [frames.path_until(-1)])
-    return every.min(axis=0), every.max(axis=0)
+    every = np.concatenate(
+        [p.reshape(-1, 2) for p in drawn] + [frames.path_until(-1), frames.goals]
+    )
+    return np.nanmin(every, axis=0), np.nanmax(every, axis=0)
 
 
 def follows_fish(frames: FishFrames) -> bool:
@@ -237,6 +325,15 @@ def _drawn_frames(
                        label="tip T")  # fmt: skip
     (centre,) = axes.plot([], [], linestyle="none", marker="+", markersize=9, color="black",
                           label="centre of mass C")  # fmt: skip
+    goal_artists = []
+    if frames.goals.size:
+        (to_goal,) = axes.plot([], [], linestyle=":", linewidth=1.0, color="tab:purple")
+        (goals_sent,) = axes.plot([], [], linestyle="none", marker="o", markersize=7,
+                                  markerfacecolor="none", markeredgecolor="tab:purple",
+                                  label="goals sent")  # fmt: skip
+        (goal_now,) = axes.plot([], [], linestyle="none", marker="*", markersize=15,
+                                color="tab:purple", label="current goal")  # fmt: skip
+        goal_artists = [to_goal, goals_sent, goal_now]
     figure.legend(loc="upper left", bbox_to_anchor=_LEGEND_CORNER, fontsize=8, framealpha=0.9)
     polylines = [
         (ring, frames.ring), (planet, frames.planet), (crank, frames.crank),
@@ -245,7 +342,8 @@ def _drawn_frames(
     ]  # fmt: skip
 
     status = axes.set_title(" ", fontsize=10)
-    moving_in_view = [trail, hull, *(line for line, _ in polylines), tip, centre, status]
+    fish_artists = [hull, *(line for line, _ in polylines), tip, centre]
+    moving_in_view = [trail, *goal_artists, *fish_artists, status]
 
     follow = follows_fish(frames)
     # Both views keep equal scales by their limits (a window of the box's aspect), so that the
@@ -259,10 +357,14 @@ def _drawn_frames(
         inset.set_title("whole path", fontsize=8)
         whole = frames.path_until(-1)
         inset.plot(whole[:, 0], whole[:, 1], color="0.75", linewidth=1.0)
+        if frames.goals.size:
+            inset.plot(frames.goals[:, 0], frames.goals[:, 1], linestyle="none", marker="*",
+                       markersize=6, color="tab:purple")  # fmt: skip
         (inset_trail,) = inset.plot([], [], color="0.25", linewidth=1.2, animated=True)
         (inset_fish,) = inset.plot([], [], linestyle="none", marker="o", markersize=5,
                                    color="tab:red", animated=True)  # fmt: skip
-        path_low, path_high = whole.min(axis=0), whole.max(axis=0)
+        every = np.concatenate((whole, frames.goals))
+        path_low, path_high = np.nanmin(every, axis=0), np.nanmax(every, axis=0)
         margin = max(0.05 * float(np.max(path_high - path_low)), frames.reach_m)
         _set_window(inset, path_low - margin, path_high + margin, _box_aspect(_INSET_BOX))
         # The view's limits, ticks and grid move: the whole view is drawn every frame.
@@ -281,21 +383,40 @@ def _drawn_frames(
     canvas.draw()
     background = canvas.copy_from_bbox(figure.bbox)
     axes.set_visible(True)
+    # A following view starts on the first pose recorded (frames in a gap have none).
+    posed = np.flatnonzero(np.isfinite(frames.x_m) & np.isfinite(frames.y_m))
+    here = np.array([frames.x_m[posed[0]], frames.y_m[posed[0]]]) if posed.size else np.zeros(2)
     for k in range(frames.time_s.size):
         x, y = float(frames.x_m[k]), float(frames.y_m[k])
+        seen = math.isfinite(x) and math.isfinite(y) and math.isfinite(frames.psi_rad[k])
         path = frames.path_until(k)
         trail.set_data(path[:, 0], path[:, 1])
-        hull.set_xy(frames.outline[k])
-        for line, points in polylines:
-            line.set_data(points[k, :, 0], points[k, :, 1])
-        tip.set_data(frames.tip[k, :1], frames.tip[k, 1:])
-        centre.set_data([x], [y])
-        status.set_text(
-            f"{title}\nt = {frames.time_s[k]:.2f} s   U = {frames.speed_m_s[k]:.3f} m/s   "
-            f"heading ψ = {math.degrees(frames.psi_rad[k]):+.1f}°"
-        )
+        for artist in fish_artists:
+            artist.set_visible(seen)
+        if seen:
+            hull.set_xy(frames.outline[k])
+            for line, points in polylines:
+                line.set_data(points[k, :, 0], points[k, :, 1])
+            tip.set_data(frames.tip[k, :1], frames.tip[k, 1:])
+            centre.set_data([x], [y])
+            status.set_text(
+                f"{title}\nt = {frames.time_s[k]:.2f} s   U = {frames.speed_m_s[k]:.3f} m/s   "
+                f"heading ψ = {math.degrees(frames.psi_rad[k]):+.1f}°"
+            )
+        else:
+            status.set_text(f"{title}\nt = {frames.time_s[k]:.2f} s   no pose: a gap in the "
+                            "recording")  # fmt: skip
+        if goal_artists:
+            sent = frames.goals_until(k)
+            goals_sent.set_data(frames.goals[:sent, 0], frames.goals[:sent, 1])
+            current = frames.goals[sent - 1 : sent]
+            goal_now.set_data(current[:, 0], current[:, 1])
+            to_goal.set_visible(seen and sent > 0)
+            if seen and sent:
+                to_goal.set_data([x, current[0, 0]], [y, current[0, 1]])
         if follow:
-            here = np.array([x, y])
+            if seen:
+                here = np.array([x, y])
             _set_window(axes, here - window, here + window, aspect)
             inset_trail.set_data(path[:, 0], path[:, 1])
             inset_fish.set_data([x], [y])

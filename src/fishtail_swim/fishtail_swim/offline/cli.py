@@ -17,12 +17,13 @@ from typing import TextIO
 
 import numpy as np
 
+from fishtail_common.bag_reading import BagError
 from fishtail_common.parameters import ParameterValueError
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_swim.dynamics.errors import SwimError
 from fishtail_swim.dynamics.fish import FloatArray
 from fishtail_swim.dynamics.motor_load import TailLoad
-from fishtail_swim.offline import animate, run_output
+from fishtail_swim.offline import animate, recorded_run, run_output
 from fishtail_swim.offline.fit import fish_file_text, fit_drag, read_measurements, write_fit_report
 from fishtail_swim.offline.fit_free_body import (
     FREE_BODY_BEATS,
@@ -102,6 +103,13 @@ def _steps_per_beat(text: str) -> int:
     return value
 
 
+def _non_negative(text: str) -> float:
+    value = number(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return value
+
+
 def _fps(text: str) -> float:
     value = number(text)
     if not 0.0 < value <= animate.MAX_FPS:
@@ -150,22 +158,51 @@ def build_parser() -> argparse.ArgumentParser:
     simulate.add_argument("--figures", type=Path, metavar="DIR", help="write PNG figures here")
     animation = commands.add_parser(
         "animate", parents=[swimmer],
-        help="a time-stepped run from rest as a GIF: top view of the fish with its linkage",
+        help="a time-stepped run from rest, or a recorded run (--bag), as a GIF: top view of the "
+        "fish with its linkage",
+        description="Without --bag: a fish from rest at a constant carrier speed (--speed, "
+        "--duration). With --bag DIR: a run recorded by fishtail-record (fish/odom; the carrier "
+        "angle from tail/state or motor/joint_state, the pivot shift from pivot/joint_state or "
+        "tail/state, goals from goal_pose). The bag does not carry the tail's geometry or the "
+        "fish's size: --config and --fish (and their flags) give them, as for a simulated run.",
     )  # fmt: skip
-    animation.add_argument("--speed", type=_carrier_speed, required=True, help="carrier rad/s")
     animation.add_argument(
-        "--duration", type=positive_number, required=True, help="simulated seconds"
+        "--speed", type=_carrier_speed, help="carrier rad/s (a simulated run: required)"
     )
-    animation.add_argument("--output", type=Path, required=True, help="GIF file to write")
+    animation.add_argument(
+        "--duration", type=positive_number,
+        help="seconds drawn (a simulated run: required; a recorded one: to its end)",
+    )  # fmt: skip
+    animation.add_argument(
+        "--output", type=Path,
+        help="GIF file to write (a simulated run: required; a recorded one: <bag name>.gif here)",
+    )  # fmt: skip
     animation.add_argument(
         "--fps", type=_fps, default=20.0,
-        help=f"frames per simulated second, at most {animate.MAX_FPS:g} (20); the GIF plays in "
-        "real time",
+        help=f"frames per simulated or recorded second, at most {animate.MAX_FPS:g} (20); the GIF "
+        "plays in real time",
     )  # fmt: skip
     animation.add_argument(
-        "--steps-per-beat", type=_steps_per_beat, default=32,
-        help="RK4 steps per tail beat (32)",
+        "--steps-per-beat", type=_steps_per_beat, default=None,
+        help="RK4 steps per tail beat of a simulated run (32)",
     )  # fmt: skip
+    recorded = animation.add_argument_group("a recorded run")
+    recorded.add_argument(
+        "--bag", type=Path, metavar="DIR",
+        help="rosbag2 bag (directory, .mcap or .db3) recorded by fishtail-record: draw it",
+    )  # fmt: skip
+    recorded.add_argument(
+        "--start", type=_non_negative, default=0.0, metavar="S",
+        help="seconds after the first fish/odom sample where the GIF starts (0)",
+    )  # fmt: skip
+    recorded.add_argument(
+        "--gap", type=positive_number, default=recorded_run.DEFAULT_GAP_S, metavar="S",
+        help="fish/odom samples further apart than this are a gap: the fish is not drawn there "
+        f"and its path is broken ({recorded_run.DEFAULT_GAP_S:g})",
+    )  # fmt: skip
+    recorded.add_argument(
+        "--namespace", help="namespace the suite was recorded under (when the bag holds several)"
+    )
     _add_fit_parser(commands, swimmer)
     _add_motor_parser(commands, swimmer)
     add_turning_parser(commands, swimmer)
@@ -320,7 +357,20 @@ def _check_gif_output(path: Path) -> None:
 
 
 def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Step the fish from rest and write the run as a GIF, one frame every 1/fps s."""
+    """Write a run as a GIF, one frame every 1/fps s: simulated from rest, or recorded (--bag)."""
+    if arguments.bag is not None:
+        _animate_recording(arguments, out)
+        return
+    for option, given in (("--start", arguments.start != 0.0), ("--namespace", arguments.namespace),
+                          ("--gap", arguments.gap != recorded_run.DEFAULT_GAP_S)):  # fmt: skip
+        if given:
+            raise UsageError(f"{option} is for a recorded run: add --bag DIR")
+    for option, value in (("--speed", arguments.speed), ("--duration", arguments.duration),
+                          ("--output", arguments.output)):  # fmt: skip
+        if value is None:
+            raise UsageError(f"a simulated run needs {option} (or draw a recorded one: --bag DIR)")
+    if arguments.steps_per_beat is None:
+        arguments.steps_per_beat = 32
     swimmer = swimmer_from_arguments(arguments)
     step, steps = _run_steps(arguments)
     times = animate.frame_times(arguments.duration, arguments.fps)
@@ -348,6 +398,50 @@ def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
     except OSError as error:
         raise UsageError(f"cannot write {arguments.output}: {error.strerror or error}") from None
     print(f"wrote {arguments.output} ({times.size} frames)", file=out)
+
+
+def _animate_recording(arguments: argparse.Namespace, out: TextIO) -> None:
+    """Read the bag's window into frames and write them as a GIF."""
+    for option, value in (("--speed", arguments.speed),
+                          ("--steps-per-beat", arguments.steps_per_beat)):  # fmt: skip
+        if value is not None:
+            raise UsageError(f"{option} is for a simulated run, not with --bag")
+    bag: Path = arguments.bag
+    named = bag.resolve()
+    output: Path = arguments.output or Path(
+        f"{named.stem if named.suffix in ('.mcap', '.db3') else named.name}.gif"
+    )
+    _check_gif_output(output)
+    swimmer = swimmer_from_arguments(arguments)
+    try:
+        run = recorded_run.read_recorded_run(
+            bag, arguments.fps, arguments.start, arguments.duration, arguments.gap,
+            arguments.namespace, max_frames=animate.MAX_FRAMES,
+        )  # fmt: skip
+    except BagError as error:
+        raise UsageError(str(error)) from None
+    if run.mechanism is not None and run.mechanism != swimmer.tail.name:
+        run.notes.append(
+            f"tail/state records the {run.mechanism} mechanism, the linkage is drawn with the "
+            f"{swimmer.tail.name} one of --config"
+        )
+    for note in run.notes:
+        print(f"{PROGRAM}: note: {note}", file=sys.stderr)
+    frames = animate.recorded_frames(run, swimmer.tail, swimmer.fish)
+    title = f"{bag.name}: {swimmer.tail.name} tail, recorded"
+    count = frames.time_s.size
+    try:
+        animate.write_gif(
+            frames, output, arguments.fps, title, Progress("animate (drawing)", count)
+        )  # fmt: skip
+    except OSError as error:
+        raise UsageError(f"cannot write {output}: {error.strerror or error}") from None
+    print(
+        f"wrote {output} ({count} frames, {run.time_s[0]:.2f} to {run.time_s[-1]:.2f} s of "
+        f"{bag}; fish/odom {run.odometry_samples} samples, {run.gaps} gaps; carrier: "
+        f"{run.carrier_source}; pivot: {run.pivot_source}; {run.goals.shape[0]} goals)",
+        file=out,
+    )
 
 
 def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
