@@ -29,7 +29,7 @@ def observe_cost_us(pilot: Pilot) -> float:
     def run() -> None:
         for index in range(MESSAGES):
             time_s = index * 0.005
-            pilot.observe(time_s, 0.3 * time_s, 0.01 * math.sin(time_s), 0.02, 0.3)
+            pilot.observe(time_s, 0.3 * time_s, 0.01 * math.sin(time_s), 0.02, 0.3, 0.1)
 
     return best_of(run, 5) / MESSAGES * 1e6
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import doctest
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -40,8 +41,10 @@ def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain, run):
     output = completed.stdout + completed.stderr
     assert completed.returncode == 0, output
     assert "driver up" in output and "kinematics up" in output and "monitor up" in output
-    last = next(line for line in output.splitlines() if line.startswith("fishtail-run: last state"))
-    assert " OK: symmetric" in last, output
+    # The swing is judged symmetric, and never asymmetric. A beat with a gap in its input (a
+    # loaded machine delays a sample) is NOT_JUDGED, which says nothing either way.
+    assert " OK: symmetric" in output, output
+    assert not re.search(r"beat \d+ (WARN|ERROR):", output), output
     assert "motor commanded to stop" in output
 
 

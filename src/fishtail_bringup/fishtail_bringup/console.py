@@ -116,7 +116,8 @@ class GoalRoute:
         goal = self.current
         if goal is None:
             return False
-        if math.hypot(goal[0] - position_m[0], goal[1] - position_m[1]) > self.tolerance_m:
+        # Written as "not within" so that an unknown (NaN) position reaches nothing.
+        if not math.hypot(goal[0] - position_m[0], goal[1] - position_m[1]) <= self.tolerance_m:
             return False
         self.index += 1
         return True

@@ -23,7 +23,7 @@ import numpy as np
 from fishtail_kinematics.engine.carrier_profile import CarrierMotion, CarrierSpeedProfile
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_swim.dynamics.fish import FishParameters, FloatArray
-from fishtail_swim.dynamics.model import PSI, SURGE, X, Y
+from fishtail_swim.dynamics.model import PSI, SURGE, YAW_RATE, X, Y
 from fishtail_swim.follower import SwimFollower
 from fishtail_swim.pilot import Pilot, PilotCommand
 
@@ -96,8 +96,9 @@ def fly(
         follower.follow(round(time_s * 1e9), angle)
         state = follower.state[0]
         command = pilot.observe(
-            time_s, float(state[X]), float(state[Y]), float(state[PSI]), float(state[SURGE])
-        )
+            time_s, float(state[X]), float(state[Y]), float(state[PSI]), float(state[SURGE]),
+            float(state[YAW_RATE]),
+        )  # fmt: skip
         rows[index] = (
             time_s, state[X], state[Y], state[PSI], state[SURGE], pilot.mean_speed_m_s,
             pilot.mean_heading_rad, carrier.profile.mean_speed_rad_s, carrier.profile.depth,

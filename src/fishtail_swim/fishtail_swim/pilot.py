@@ -87,6 +87,10 @@ class BeatAverage:
             return latest_value
         return self._integral / span
 
+    def oldest(self) -> tuple[float, float]:
+        """The time and value of the oldest sample held (after the last :meth:`mean`'s trim)."""
+        return self._samples[0]
+
     def clear(self) -> None:
         """Forget every sample."""
         self._samples.clear()
@@ -113,6 +117,12 @@ class Steering(Protocol):
 
     def command(self, yaw_per_beat_rad: float) -> SteeringCommand:
         """The input that gives ``yaw_per_beat_rad`` (at the range's end beyond it)."""
+
+    def input_for(self, yaw_per_beat_rad: float) -> float:
+        """The actuator's input that gives ``yaw_per_beat_rad``."""
+
+    def turning_radius_at(self, steering_input: float) -> float:
+        """The signed radius of the steady circle at ``steering_input`` (m, > 0 left)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,11 +228,13 @@ class Pilot:
         self._heading_reference: float | None = None
         self._speed = BeatAverage()
         self._heading = BeatAverage()
+        self._yaw_rate = BeatAverage()
         self._unwrapped_heading: float | None = None
         self._last_time_s: float | None = None
         self._integral_rad_s = 0.0
         self.mean_speed_m_s = math.nan
         self.mean_heading_rad = math.nan
+        self.predicted_heading_rad = math.nan
         self.position_m = (math.nan, math.nan)
         self.command = PilotCommand(CarrierSpeedProfile(0.0), None)
         self.limit_reports: dict[str, LimitReport] = {}
@@ -270,9 +282,15 @@ class Pilot:
 
     # ------------------------------------------------------------------ odometry
     def observe(
-        self, time_s: float, x_m: float, y_m: float, yaw_rad: float, surge_m_s: float
+        self,
+        time_s: float,
+        x_m: float,
+        y_m: float,
+        yaw_rad: float,
+        surge_m_s: float,
+        yaw_rate_rad_s: float,
     ) -> PilotCommand:
-        """One odometry sample: update the beat means and return the commands for now."""
+        """One odometry sample (pose in world, surge and yaw rate): the commands for now."""
         if self._unwrapped_heading is None:
             unwrapped = yaw_rad
         else:
@@ -282,7 +300,19 @@ class Pilot:
         self._heading.add(time_s, unwrapped)
         window = self._window_s()
         self.mean_speed_m_s = self._speed.mean(window)
+        # The mean over the last beat is the heading of half a beat ago: it is brought up to now
+        # with the rate at which that mean itself turned over the last beat (a difference of
+        # beat means, free of the wiggle within the beat), so that the loop does not steer on a
+        # heading half a beat old.
         self.mean_heading_rad = self._heading.mean(window)
+        # That mean is the heading of half a beat ago. Swimming to a goal, whose bearing swings
+        # fast as the fish nears it, the pilot steers on it brought up to now with the beat's mean
+        # yaw rate; following cmd_vel it steers on the mean itself, whose lag costs nothing there
+        # and which is free of the noise the estimate adds.
+        self._yaw_rate.add(time_s, yaw_rate_rad_s)
+        self.predicted_heading_rad = self.mean_heading_rad + 0.5 * window * self._yaw_rate.mean(
+            window
+        )
         self.position_m = (x_m, y_m)
         dt = 0.0 if self._last_time_s is None else time_s - self._last_time_s
         dt = min(max(dt, 0.0), MAX_CONTROL_STEP_S)
@@ -320,21 +350,21 @@ class Pilot:
             1.0, distance / settings.slow_down_distance_m
         )
         bearing = math.atan2(self.goal[1] - self.position_m[1], self.goal[0] - self.position_m[0])
-        error = wrap_angle(bearing - self.mean_heading_rad)
+        error = wrap_angle(bearing - self.predicted_heading_rad)
         if self._inside_turning_circle(error):
             # Turning towards it would circle the goal for ever: swim straight on until the
             # goal lies outside the tightest circle on that side, then turn.
             error = 0.0
-        # The reference is the bearing, unwrapped next to the mean heading.
+        # The control law compares the reference with the mean heading.
         self._heading_reference = self.mean_heading_rad + error
 
     def _inside_turning_circle(self, bearing_error_rad: float) -> bool:
         assert self.goal is not None
         radius = GOAL_CIRCLE_MARGIN * self.min_turning_radius_m(bearing_error_rad)
-        if not math.isfinite(radius) or not math.isfinite(self.mean_heading_rad):
+        heading = self.predicted_heading_rad
+        if not (math.isfinite(radius) and math.isfinite(heading)):
             return False
         side = math.copysign(1.0, bearing_error_rad)
-        heading = self.mean_heading_rad
         centre_x = self.position_m[0] - side * radius * math.sin(heading)
         centre_y = self.position_m[1] + side * radius * math.cos(heading)
         return math.hypot(self.goal[0] - centre_x, self.goal[1] - centre_y) < radius
@@ -416,8 +446,10 @@ class Pilot:
 
     def min_turning_radius_m(self, direction: float) -> float:
         """The tightest circle the steering gives turning towards ``direction``'s sign (m)."""
+        # The steering's own radius: a deep modulation also swims further a beat than straight
+        # swimming does, so its circle is wider than (U/f straight) / (r/f).
         low, high = self.steering.yaw_per_beat_range_rad
         yaw_per_beat = high if direction > 0.0 else low
-        if yaw_per_beat == 0.0:
+        if yaw_per_beat == 0.0 or (yaw_per_beat > 0.0) != (direction > 0.0):
             return math.inf
-        return self.settings.speed_per_beat_m / abs(yaw_per_beat)
+        return abs(self.steering.turning_radius_at(self.steering.input_for(yaw_per_beat)))

@@ -3,7 +3,8 @@
 The bounds are the behaviour the pilot documents (docs/steering.md): a speed step up settles
 within 10 % of the command in 4 beats, a step down in 15 (the fish can only glide down: drag is
 its one brake); a positive yaw-rate command turns the fish to the left, at the commanded rate
-once settled; a goal 3 m away is reached within 0.2 m in the stated time.
+once settled; a goal 3 m away, ahead, aside or behind, is reached within 0.2 m in the stated
+time.
 """
 
 from __future__ import annotations
@@ -88,6 +89,8 @@ def time_to_reach(loop: LoopRun, goal: tuple[float, float], within_m: float) -> 
         ("oscillatory", (0.0, 3.0), 30.0),
         ("undulatory", (3.0, 0.0), 15.0),
         ("undulatory", (0.0, 3.0), 30.0),
+        ("oscillatory", (-3.0, 0.0), 40.0),
+        ("undulatory", (-3.0, 0.0), 40.0),
     ],
 )
 def test_a_goal_three_metres_away_is_reached_within_twenty_centimetres(mechanism, goal, seconds):

@@ -190,6 +190,7 @@ class PilotNode(SuiteNodeBase):
             pose.position.y,
             yaw,
             message.twist.twist.linear.x,
+            message.twist.twist.angular.z,
         )
         if was_goal and self.pilot.goal_reached:
             self.get_logger().info(
