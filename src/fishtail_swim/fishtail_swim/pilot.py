@@ -87,10 +87,6 @@ class BeatAverage:
             return latest_value
         return self._integral / span
 
-    def oldest(self) -> tuple[float, float]:
-        """The time and value of the oldest sample held (after the last :meth:`mean`'s trim)."""
-        return self._samples[0]
-
     def clear(self) -> None:
         """Forget every sample."""
         self._samples.clear()
