@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterable
 
 ParameterValue = bool | int | float | str
 
@@ -78,3 +79,12 @@ class ParameterSpec:
         if not math.isfinite(number):  # an infinity where the range is open
             raise ParameterValueError(f"{self.name} must be finite, got {value!r}")
         return number
+
+
+def read_only(specs: Iterable[ParameterSpec]) -> tuple[ParameterSpec, ...]:
+    """``specs`` fixed at start-up: a node refuses run-time changes to them.
+
+    >>> read_only([ParameterSpec("rate_hz", 1.0, "rate")])[0].read_only
+    True
+    """
+    return tuple(dataclasses.replace(spec, read_only=True) for spec in specs)

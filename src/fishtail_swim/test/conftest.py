@@ -47,3 +47,19 @@ def oscillatory_free_run():
 def undulatory_free_run():
     """Mechanism 2 (report geometry), free body, at 4 rad/s."""
     return run_free(UndulatoryGeometry(), np.array([4.0]), 24, 40)
+
+
+@pytest.fixture
+def swim_cli(capsys):
+    """Run ``fishtail-swim`` in-process: ``swim_cli(*arguments)`` gives (status, stdout, stderr)."""
+    from fishtail_swim.offline.cli import main
+
+    def run(*arguments):
+        try:
+            status = main([str(argument) for argument in arguments])
+        except SystemExit as exit_:
+            status = exit_.code
+        captured = capsys.readouterr()
+        return status, captured.out, captured.err
+
+    return run

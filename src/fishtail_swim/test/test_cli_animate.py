@@ -13,7 +13,6 @@ from fishtail_swim.dynamics.fish import FishParameters
 from fishtail_swim.dynamics.model import PSI, X, Y
 from fishtail_swim.dynamics.outline import body_to_world
 from fishtail_swim.offline import animate
-from fishtail_swim.offline.cli import main
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.time_run import run_from_rest
 
@@ -24,20 +23,10 @@ SPEED_RAD_S = 8.0
 STEPS_PER_BEAT = 16
 
 
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
-
-
-def test_animate_writes_a_looping_gif_with_a_frame_every_one_over_fps(capsys, tmp_path):
+def test_animate_writes_a_looping_gif_with_a_frame_every_one_over_fps(swim_cli, tmp_path):
     output = tmp_path / "fish.gif"
-    status, out, err = run_cli(
-        capsys, "animate", "--config", OSCILLATORY, "--fish", FISH, "--speed", SPEED_RAD_S,
+    status, out, err = swim_cli(
+        "animate", "--config", OSCILLATORY, "--fish", FISH, "--speed", SPEED_RAD_S,
         "--duration", 1.0, "--fps", 10, "--steps-per-beat", STEPS_PER_BEAT, "--output", output,
     )  # fmt: skip
     assert status == 0, err
@@ -141,10 +130,10 @@ def test_a_long_path_is_followed_and_a_short_one_shown_whole(tmp_path):
         (("--speed", 8), "--duration"),
     ],
 )
-def test_bad_animation_input_is_one_line_and_exit_2(capsys, tmp_path, arguments, words):
+def test_bad_animation_input_is_one_line_and_exit_2(swim_cli, tmp_path, arguments, words):
     output = tmp_path / "fish.gif"
-    status, out, err = run_cli(
-        capsys, "animate", "--config", OSCILLATORY, "--fish", FISH, "--output", output, *arguments
+    status, out, err = swim_cli(
+        "animate", "--config", OSCILLATORY, "--fish", FISH, "--output", output, *arguments
     )
     assert status == 2
     assert out == ""
@@ -161,10 +150,10 @@ def test_bad_animation_input_is_one_line_and_exit_2(capsys, tmp_path, arguments,
         ("{tmp}/folder.gif", "it is a directory"),
     ],
 )
-def test_an_unwritable_output_is_refused_before_the_run(capsys, tmp_path, output, words):
+def test_an_unwritable_output_is_refused_before_the_run(swim_cli, tmp_path, output, words):
     (tmp_path / "folder.gif").mkdir()
-    status, out, err = run_cli(
-        capsys, "animate", "--config", OSCILLATORY, "--fish", FISH, "--speed", SPEED_RAD_S,
+    status, out, err = swim_cli(
+        "animate", "--config", OSCILLATORY, "--fish", FISH, "--speed", SPEED_RAD_S,
         "--duration", 1.0, "--output", output.format(tmp=tmp_path),
     )  # fmt: skip
     assert status == 2 and out == ""

@@ -31,7 +31,6 @@ from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_swim.dynamics.fish import FishParameters
 from fishtail_swim.offline import animate, recorded_run
-from fishtail_swim.offline.cli import main
 
 ROOT = Path(__file__).resolve().parents[3]
 CONFIG = ROOT / "config"
@@ -163,16 +162,6 @@ def circle_bag(tmp_path_factory):
     return write_bag(tmp_path_factory.mktemp("bags") / "circle")
 
 
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
-
-
 def assert_same_angle(actual, expected):
     np.testing.assert_allclose(np.angle(np.exp(1j * (actual - expected))), 0.0, atol=1e-12)
 
@@ -273,10 +262,10 @@ def test_interpolation_is_by_time_between_brackets():
     assert abs(abs(result[0, 0]) - (3.0 + (2 * math.pi - 6.0) / 2)) < 1e-12
 
 
-def test_animate_bag_writes_a_gif_with_a_frame_every_one_over_fps(capsys, tmp_path, circle_bag):
+def test_animate_bag_writes_a_gif_with_a_frame_every_one_over_fps(swim_cli, tmp_path, circle_bag):
     output = tmp_path / "run.gif"
-    status, out, err = run_cli(
-        capsys, "animate", "--bag", circle_bag, "--config", OSCILLATORY, "--fish", FISH,
+    status, out, err = swim_cli(
+        "animate", "--bag", circle_bag, "--config", OSCILLATORY, "--fish", FISH,
         "--fps", 5, "--start", 1.0, "--duration", 2.0, "--output", output,
     )  # fmt: skip
     assert status == 0, err
@@ -287,9 +276,11 @@ def test_animate_bag_writes_a_gif_with_a_frame_every_one_over_fps(capsys, tmp_pa
         assert gif.info["duration"] == 200
 
 
-def test_animate_bag_to_its_end_with_the_default_output(capsys, tmp_path, circle_bag, monkeypatch):
+def test_animate_bag_to_its_end_with_the_default_output(
+    swim_cli, tmp_path, circle_bag, monkeypatch
+):
     monkeypatch.chdir(tmp_path)
-    status, out, err = run_cli(capsys, "animate", "--bag", circle_bag, "--fps", 2)
+    status, out, err = swim_cli("animate", "--bag", circle_bag, "--fps", 2)
     assert status == 0, err
     last = odom_times()[-1]
     frames = math.floor(last * 2) + 1
@@ -329,7 +320,9 @@ def _garbage_bag(tmp_path):
         ("circle", ("--output", "{tmp}/run.png"), "name it *.gif"),
     ],
 )  # fmt: skip
-def test_bad_bag_input_is_one_line_and_exit_2(capsys, tmp_path, circle_bag, bag, arguments, words):
+def test_bad_bag_input_is_one_line_and_exit_2(
+    swim_cli, tmp_path, circle_bag, bag, arguments, words
+):
     paths = {"circle": circle_bag, "garbage": _garbage_bag(tmp_path)}
     if bag == "no_odom":
         paths[bag] = write_bag(tmp_path / "no_odom", topics=("state",))
@@ -339,7 +332,7 @@ def test_bad_bag_input_is_one_line_and_exit_2(capsys, tmp_path, circle_bag, bag,
     arguments = [str(a).format(tmp=tmp_path) for a in arguments]
     if "--output" not in arguments:
         arguments += ["--output", str(tmp_path / "run.gif")]
-    status, out, err = run_cli(capsys, "animate", "--bag", bag_path, *arguments)
+    status, out, err = swim_cli("animate", "--bag", bag_path, *arguments)
     assert status == 2 and out == ""
     assert err.startswith("fishtail-swim: error:") and err.count("\n") == 1, err
     assert words in err
@@ -347,8 +340,8 @@ def test_bad_bag_input_is_one_line_and_exit_2(capsys, tmp_path, circle_bag, bag,
     assert not (tmp_path / "run.gif").exists()
 
 
-def test_recorded_run_options_need_a_bag(capsys, tmp_path):
-    status, _, err = run_cli(capsys, "animate", "--speed", 8, "--duration", 1, "--start", 1,
+def test_recorded_run_options_need_a_bag(swim_cli, tmp_path):
+    status, _, err = swim_cli("animate", "--speed", 8, "--duration", 1, "--start", 1,
                              "--output", tmp_path / "x.gif")  # fmt: skip
     assert status == 2 and "--start is for a recorded run: add --bag DIR" in err
 

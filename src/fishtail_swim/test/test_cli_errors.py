@@ -4,21 +4,9 @@ from pathlib import Path
 
 import pytest
 
-from fishtail_swim.offline.cli import main
-
 CONFIG = Path(__file__).resolve().parents[3] / "config"
 OSCILLATORY = CONFIG / "oscillatory.yaml"
 FISH = CONFIG / "fish.yaml"
-
-
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
 
 
 @pytest.fixture
@@ -71,11 +59,11 @@ STEADY = ("steady", "--config", OSCILLATORY, "--fish", FISH)
         ((), "required"),
     ],
 )
-def test_bad_input_is_one_line_and_exit_2(capsys, bad_files, arguments, words):
+def test_bad_input_is_one_line_and_exit_2(swim_cli, bad_files, arguments, words):
     arguments = [str(a).replace("{tmp}", str(bad_files)) for a in arguments]
     if arguments and arguments[0] == "simulate" and "--config" not in arguments:
         arguments[1:1] = ["--config", str(OSCILLATORY), "--fish", str(FISH)]
-    status, out, err = run_cli(capsys, *arguments)
+    status, out, err = swim_cli(*arguments)
     assert status == 2
     assert out == ""
     lines = err.splitlines()
@@ -86,8 +74,8 @@ def test_bad_input_is_one_line_and_exit_2(capsys, bad_files, arguments, words):
 
 
 @pytest.mark.parametrize("command", [(), ("steady",), ("simulate",)])
-def test_help_works(capsys, command):
-    status, out, err = run_cli(capsys, *command, "--help")
+def test_help_works(swim_cli, command):
+    status, out, err = swim_cli(*command, "--help")
     assert status == 0
     assert out.startswith("usage: fishtail-swim")
     assert err == ""

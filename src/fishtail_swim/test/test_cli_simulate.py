@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 
-from fishtail_swim.offline.cli import main
 from fishtail_swim.offline.run_output import RUN_COLUMNS
 
 CONFIG = Path(__file__).resolve().parents[3] / "config"
@@ -17,20 +16,9 @@ SPEED_RAD_S = 8.0
 STEPS_PER_BEAT = 16
 
 
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
-
-
-def test_simulate_writes_a_csv_whose_whole_beats_give_the_summarys_speed(capsys, tmp_path):
+def test_simulate_writes_a_csv_whose_whole_beats_give_the_summarys_speed(swim_cli, tmp_path):
     output, figures = tmp_path / "run.csv", tmp_path / "figures"
-    status, out, err = run_cli(
-        capsys, "simulate", "--config", OSCILLATORY, "--fish", FISH,
+    status, out, err = swim_cli("simulate", "--config", OSCILLATORY, "--fish", FISH,
         "--speed", SPEED_RAD_S, "--duration", 10, "--steps-per-beat", STEPS_PER_BEAT,
         "--output", output, "--figures", figures,
     )  # fmt: skip
@@ -60,10 +48,9 @@ def test_simulate_writes_a_csv_whose_whole_beats_give_the_summarys_speed(capsys,
         assert f"wrote {figures / name}" in out
 
 
-def test_simulate_without_figures_writes_only_the_csv(capsys, tmp_path):
+def test_simulate_without_figures_writes_only_the_csv(swim_cli, tmp_path):
     output = tmp_path / "run.csv"
-    status, out, _ = run_cli(
-        capsys, "simulate", "--config", OSCILLATORY, "--fish", FISH, "--speed", 12,
+    status, out, _ = swim_cli("simulate", "--config", OSCILLATORY, "--fish", FISH, "--speed", 12,
         "--duration", 2, "--steps-per-beat", 8, "--output", output,
     )  # fmt: skip
     assert status == 0

@@ -12,22 +12,11 @@ from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_swim.dynamics.figures import steady_surge_speed
 from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.fish_config import load_fish_parameters
-from fishtail_swim.offline.cli import main
 
 CONFIG = Path(__file__).resolve().parents[3] / "config"
 OSCILLATORY = CONFIG / "oscillatory.yaml"
 FISH = CONFIG / "fish.yaml"
 SPEEDS = np.array([2.0, 4.0, 8.0, 12.0])
-
-
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
 
 
 def _csv_rows(text):
@@ -38,9 +27,8 @@ def _column(rows, name):
     return np.array([float(row[name]) for row in rows])
 
 
-def test_table_is_the_librarys_steady_speed(capsys):
-    status, out, err = run_cli(
-        capsys, "steady", "--config", OSCILLATORY, "--fish", FISH, "--csv",
+def test_table_is_the_librarys_steady_speed(swim_cli):
+    status, out, err = swim_cli("steady", "--config", OSCILLATORY, "--fish", FISH, "--csv",
         "--speeds", ",".join(f"{s:g}" for s in SPEEDS),
     )  # fmt: skip
     assert status == 0, err
@@ -58,10 +46,9 @@ def test_table_is_the_librarys_steady_speed(capsys):
     np.testing.assert_allclose(_column(rows, "mean_thrust_n"), fish.drag_factor_kg_m * speed**2)
 
 
-def test_quadratic_forces_scale_with_beat_frequency(capsys):
+def test_quadratic_forces_scale_with_beat_frequency(swim_cli):
     # Every force is quadratic in velocity: U ~ f, thrust ~ f², power ~ f³; St and eta constant.
-    status, out, _ = run_cli(
-        capsys, "steady", "--config", OSCILLATORY, "--fish", FISH, "--csv",
+    status, out, _ = swim_cli("steady", "--config", OSCILLATORY, "--fish", FISH, "--csv",
         "--speed-range", "2:16:8",
     )  # fmt: skip
     assert status == 0
@@ -77,19 +64,17 @@ def test_quadratic_forces_scale_with_beat_frequency(capsys):
         assert 0.0 < values[0] < 1.0
 
 
-def test_text_table_has_a_heading_and_a_row_per_speed(capsys):
-    status, out, _ = run_cli(
-        capsys, "steady", "--config", OSCILLATORY, "--fish", FISH, "--speeds", "4,8"
-    )
+def test_text_table_has_a_heading_and_a_row_per_speed(swim_cli):
+    status, out, _ = swim_cli("steady", "--config", OSCILLATORY, "--fish", FISH, "--speeds", "4,8")
     assert status == 0
     lines = out.splitlines()
     assert "U [m/s]" in lines[0] and "efficiency" in lines[0]
     assert len(lines) == 3
 
 
-def test_check_finds_the_free_body_within_a_few_percent_for_mechanism_1(capsys):
-    status, out, _ = run_cli(
-        capsys, "steady", "--config", OSCILLATORY, "--fish", FISH, "--csv", "--speeds", "4",
+def test_check_finds_the_free_body_within_a_few_percent_for_mechanism_1(swim_cli):
+    status, out, _ = swim_cli(
+        "steady", "--config", OSCILLATORY, "--fish", FISH, "--csv", "--speeds", "4",
         "--check",
     )  # fmt: skip
     assert status == 0

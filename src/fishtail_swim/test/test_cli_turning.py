@@ -26,16 +26,6 @@ QUICK = (
 TURNING = ("turning", "--config", OSCILLATORY, "--fish", FISH)
 
 
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
-
-
 def _tables(text):
     return [list(csv.DictReader(io.StringIO(block))) for block in text.strip().split("\n\n")]
 
@@ -94,9 +84,9 @@ def test_columns_agree_with_each_other(csv_run):
     assert sides["left"] > 0.0 > sides["right"]
 
 
-def test_text_output_titles_each_table_and_draws_the_figure(capsys, tmp_path):
+def test_text_output_titles_each_table_and_draws_the_figure(swim_cli, tmp_path):
     figure = tmp_path / "turning.png"
-    status, out, err = run_cli(capsys, *TURNING, *QUICK, "--figure", figure)
+    status, out, err = swim_cli(*TURNING, *QUICK, "--figure", figure)
     assert status == 0, err
     assert "phase scan at depth 0.9: strongest left at phase" in out
     assert "modulation depth at the strongest phase each way" in out
@@ -105,16 +95,15 @@ def test_text_output_titles_each_table_and_draws_the_figure(capsys, tmp_path):
     assert figure.stat().st_size > 10_000
 
 
-def test_one_means_alone(capsys):
-    status, out, _ = run_cli(capsys, *TURNING, *QUICK, "--means", "pivot", "--csv")
+def test_one_means_alone(swim_cli):
+    status, out, _ = swim_cli(*TURNING, *QUICK, "--means", "pivot", "--csv")
     assert status == 0
     (pivot,) = _tables(out)
     assert [row["pivot_shift_mm"] for row in pivot] == ["-20", "0", "20"]
 
 
-def test_a_run_too_short_for_the_transient_is_warned_about(capsys):
-    status, _, err = run_cli(
-        capsys, *TURNING, "--beats", "4", "--steps-per-beat", "16", "--phases", "4",
+def test_a_run_too_short_for_the_transient_is_warned_about(swim_cli):
+    status, _, err = swim_cli(*TURNING, "--beats", "4", "--steps-per-beat", "16", "--phases", "4",
         "--depths", "0.5", "--means", "modulation",
     )  # fmt: skip
     assert status == 0
@@ -142,9 +131,9 @@ def test_a_run_too_short_for_the_transient_is_warned_about(capsys):
         (("--crank-link-m", "0.5"), "cannot assemble"),
     ],
 )
-def test_bad_input_is_one_line_and_exit_2(capsys, tmp_path, arguments, words):
+def test_bad_input_is_one_line_and_exit_2(swim_cli, tmp_path, arguments, words):
     arguments = [str(a).replace("{tmp}", str(tmp_path)) for a in arguments]
-    status, out, err = run_cli(capsys, *TURNING, *arguments)
+    status, out, err = swim_cli(*TURNING, *arguments)
     assert status == 2
     assert out == ""
     lines = err.splitlines()
@@ -153,7 +142,7 @@ def test_bad_input_is_one_line_and_exit_2(capsys, tmp_path, arguments, words):
     assert words in lines[0]
 
 
-def test_help_works(capsys):
-    status, out, err = run_cli(capsys, "turning", "--help")
+def test_help_works(swim_cli):
+    status, out, err = swim_cli("turning", "--help")
     assert status == 0 and err == ""
     assert out.startswith("usage: fishtail-swim turning")

@@ -19,7 +19,6 @@ from fishtail_swim.dynamics.figures import beat_means, steady_surge_speed
 from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
 from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.fish_config import load_fish_parameters, read_fish_values
-from fishtail_swim.offline.cli import main
 from fishtail_swim.offline.fit import (
     fish_file_text,
     fit_drag,
@@ -41,16 +40,6 @@ TRUE_DAMPING = 0.3
 #: find the parameters to the solver's accuracy.
 QUICK = RunSettings(beats=20, steps_per_beat=16)
 TOOL = ("--config", OSCILLATORY, "--fish", FISH)
-
-
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
 
 
 @pytest.fixture(scope="module")
@@ -99,11 +88,11 @@ def test_speeds_made_at_a_known_drag_are_fitted_back(swimmer, tmp_path):
     assert float(result.fish.drag_coefficient) == fitted.value
 
 
-def test_noisy_speeds_leave_residuals_and_a_fit_near_the_drag(swimmer, tmp_path, capsys):
+def test_noisy_speeds_leave_residuals_and_a_fit_near_the_drag(swimmer, tmp_path, swim_cli):
     noise = np.array([1.02, 0.985, 1.01, 0.99])
     speeds = balance_speeds(swimmer, TRUE_DRAG) * noise
     path = write_measurements(tmp_path / "m.csv", CARRIERS, speeds)
-    status, out, err = run_cli(capsys, "fit", path, *TOOL, "--csv")
+    status, out, err = swim_cli("fit", path, *TOOL, "--csv")
     assert status == 0, err
     rows, parameters = csv_tables(out)
     (drag,) = parameters
@@ -132,10 +121,10 @@ def test_the_closed_form_is_the_least_squares_minimum(swimmer, tmp_path):
     assert fit_drag(swimmer, measurements).fitted[0].value == pytest.approx(direct.x, rel=1e-6)
 
 
-def test_one_row_fits_without_a_standard_error(swimmer, capsys, tmp_path):
+def test_one_row_fits_without_a_standard_error(swimmer, swim_cli, tmp_path):
     speed = balance_speeds(swimmer, TRUE_DRAG, np.array([6.0]))
     path = write_measurements(tmp_path / "m.csv", [6.0], speed)
-    status, out, err = run_cli(capsys, "fit", path, *TOOL)
+    status, out, err = swim_cli("fit", path, *TOOL)
     assert status == 0, err
     assert "drag_coefficient = 0.2 (was 0.3)" in out
     assert "no standard error" in out
@@ -174,7 +163,7 @@ def free_body_measurements(swimmer, carriers, settings):
     return np.array(speeds), np.array(yaw_rates)
 
 
-def test_yaw_rates_fit_drag_and_yaw_damping_on_the_free_body(swimmer, tmp_path, capsys):
+def test_yaw_rates_fit_drag_and_yaw_damping_on_the_free_body(swimmer, tmp_path, swim_cli):
     carriers = np.array([4.0, 10.0])
     speeds, yaw_rates = free_body_measurements(swimmer, carriers, QUICK)
     path = write_measurements(tmp_path / "m.csv", carriers, speeds, yaw_rates)
@@ -189,8 +178,7 @@ def test_yaw_rates_fit_drag_and_yaw_damping_on_the_free_body(swimmer, tmp_path, 
     np.testing.assert_allclose(result.model_yaw_rate_rad_s, yaw_rates, rtol=1e-6)
     assert not result.warnings
     # The same through the command line, with its yaw columns.
-    status, out, err = run_cli(
-        capsys, "fit", path, *TOOL, "--csv", "--beats", QUICK.beats,
+    status, out, err = swim_cli("fit", path, *TOOL, "--csv", "--beats", QUICK.beats,
         "--steps-per-beat", QUICK.steps_per_beat,
     )  # fmt: skip
     assert status == 0, err
@@ -200,19 +188,19 @@ def test_yaw_rates_fit_drag_and_yaw_damping_on_the_free_body(swimmer, tmp_path, 
     np.testing.assert_allclose(column(rows, "yaw_rate_residual_rad_s"), 0.0, atol=1e-9)
 
 
-def test_yaw_rates_of_the_wrong_sign_are_refused(swimmer, tmp_path, capsys):
+def test_yaw_rates_of_the_wrong_sign_are_refused(swimmer, tmp_path, swim_cli):
     # The Cardan tail turns the fish right (r < 0); a left turn cannot be fitted by any K_D.
     path = write_measurements(tmp_path / "m.csv", [4.0, 8.0], [0.2, 0.4], [0.002, 0.004])
-    status, out, err = run_cli(capsys, "fit", path, *TOOL, "--beats", "6", "--steps-per-beat", "8")
+    status, out, err = swim_cli("fit", path, *TOOL, "--beats", "6", "--steps-per-beat", "8")
     assert status == 2 and out == ""
     assert err.count("\n") == 1 and "turns right (< 0) at every K_D" in err
 
 
-def test_the_fish_file_round_trips_through_the_reader_and_steady(swimmer, tmp_path, capsys):
+def test_the_fish_file_round_trips_through_the_reader_and_steady(swimmer, tmp_path, swim_cli):
     speeds = balance_speeds(swimmer, TRUE_DRAG) * np.array([1.01, 0.99, 1.0, 1.0])
     path = write_measurements(tmp_path / "m.csv", CARRIERS, speeds)
     fitted_file = tmp_path / "fitted_fish.yaml"
-    status, out, err = run_cli(capsys, "fit", path, *TOOL, "--csv", "--output", fitted_file)
+    status, out, err = swim_cli("fit", path, *TOOL, "--csv", "--output", fitted_file)
     assert status == 0, err
     assert f"wrote {fitted_file}" in err
     rows, (drag,) = csv_tables(out)
@@ -224,8 +212,7 @@ def test_the_fish_file_round_trips_through_the_reader_and_steady(swimmer, tmp_pa
     assert list(document) == ["/**"]
     assert all(isinstance(v, float) for v in document["/**"]["ros__parameters"].values())
     speeds_text = ",".join(f"{c:g}" for c in CARRIERS)
-    status, out, err = run_cli(
-        capsys, "steady", "--config", OSCILLATORY, "--fish", fitted_file, "--csv",
+    status, out, err = swim_cli("steady", "--config", OSCILLATORY, "--fish", fitted_file, "--csv",
         "--speeds", speeds_text,
     )  # fmt: skip
     assert status == 0, err
@@ -286,7 +273,7 @@ BAD = {
         ("missing_directory", "no directory"),
     ],
 )
-def test_bad_measurements_are_one_line_and_exit_2(capsys, tmp_path, name, words):
+def test_bad_measurements_are_one_line_and_exit_2(swim_cli, tmp_path, name, words):
     content = BAD.get(name, BAD["too_slow"].replace("0.004", "0.2"))
     path = Path(name) if name.startswith("/") else tmp_path / f"{name}.csv"
     if isinstance(content, bytes):
@@ -294,7 +281,7 @@ def test_bad_measurements_are_one_line_and_exit_2(capsys, tmp_path, name, words)
     elif not name.startswith("/"):
         path.write_text(content, encoding="utf-8")
     output = tmp_path / ("missing" if name == "missing_directory" else "") / "fish.yaml"
-    status, out, err = run_cli(capsys, "fit", path, *TOOL, "--output", output)
+    status, out, err = swim_cli("fit", path, *TOOL, "--output", output)
     assert status == 2
     assert out == ""
     lines = err.splitlines()
@@ -304,8 +291,8 @@ def test_bad_measurements_are_one_line_and_exit_2(capsys, tmp_path, name, words)
     assert not output.exists()
 
 
-def test_help_works(capsys):
-    status, out, err = run_cli(capsys, "fit", "--help")
+def test_help_works(swim_cli):
+    status, out, err = swim_cli("fit", "--help")
     assert status == 0 and err == ""
     assert out.startswith("usage: fishtail-swim fit")
     assert "yaw_rate_rad_s" in out

@@ -14,7 +14,6 @@ from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_swim.dynamics.dc_motor import DcMotorParameters
 from fishtail_swim.dynamics.fish import FishParameters
 from fishtail_swim.dynamics.motor_load import TailLoad
-from fishtail_swim.offline.cli import main
 from fishtail_swim.offline.full_duty_run import run_at_full_duty
 from fishtail_swim.offline.motor_load_table import motor_load_rows
 from fishtail_swim.offline.motor_sizing import (
@@ -39,16 +38,6 @@ WEAK = ("--stall-torque-n-m", "0.05", "--no-load-speed-rpm", "100")
 def tail_load(mechanism, surroundings, inertia=None):
     tail = make_tail(GEOMETRIES[mechanism])
     return TailLoad(tail, inertia or LinkInertia(), FishParameters(), surroundings)
-
-
-def run_cli(capsys, *arguments):
-    """(exit status, stdout, stderr) of ``fishtail-swim arguments``, run in-process."""
-    try:
-        status = main([str(argument) for argument in arguments])
-    except SystemExit as exit_:
-        status = exit_.code
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
 
 
 # ---- hand-derived cases
@@ -111,9 +100,7 @@ def test_the_gearbox_charges_its_losses_both_ways():
     k, n = p.torque_constant_n_m_a, p.gear_ratio
     currents = np.array([0.01 / eta, -0.01 * eta]) * w**2 / (n * k)
     assert rows.rms_current_a[0] == pytest.approx(math.sqrt(np.mean(currents**2)))
-    assert rows.mean_voltage_v[0] == pytest.approx(
-        p.resistance_ohm * currents.mean() + k * n * w
-    )
+    assert rows.mean_voltage_v[0] == pytest.approx(p.resistance_ohm * currents.mean() + k * n * w)
     assert rows.mean_voltage_v[0] > k * n * w  # the losses cost voltage though tau averages to 0
 
 
@@ -153,8 +140,9 @@ def test_row_verdicts_say_which_limit_a_constant_speed_passes():
 @pytest.mark.parametrize("mechanism", ["oscillatory", "undulatory"])
 def test_sustained_speed_falls_as_the_load_grows(mechanism):
     speeds = {
-        surroundings: size_motor(DcMotorParameters(), tail_load(mechanism, surroundings))
-        .run.mean_speed_rad_s
+        surroundings: size_motor(
+            DcMotorParameters(), tail_load(mechanism, surroundings)
+        ).run.mean_speed_rad_s
         for surroundings in ("none", "air", "water_held", "water_swimming")
     }
     assert speeds["none"] > speeds["air"] >= speeds["water_held"] > speeds["water_swimming"]
@@ -237,10 +225,8 @@ def test_a_carrier_that_sticks_within_a_revolution_stalls_there():
     )
 
 
-def test_a_weak_motor_stalls_with_a_clear_sentence_and_exit_status_0(capsys):
-    status, out, err = run_cli(
-        capsys, "motor", "--mechanism", "undulatory", "--fish", FISH, *WEAK
-    )
+def test_a_weak_motor_stalls_with_a_clear_sentence_and_exit_status_0(swim_cli):
+    status, out, err = swim_cli("motor", "--mechanism", "undulatory", "--fish", FISH, *WEAK)
     assert status == 0, err
     assert "nan" not in out.lower() and "inf" not in out.lower()
     last = out.strip().splitlines()[-1]
@@ -249,25 +235,26 @@ def test_a_weak_motor_stalls_with_a_clear_sentence_and_exit_status_0(capsys):
     assert out.count("over the stall") == 6  # every row of the table
 
 
-def test_a_motor_that_cannot_turn_itself_cannot_start_the_tail(capsys):
-    status, out, err = run_cli(
-        capsys, "motor", "--fish", FISH, "--coulomb-friction-n-m", "0.1", "--frequencies", "1,2"
+def test_a_motor_that_cannot_turn_itself_cannot_start_the_tail(swim_cli):
+    status, out, err = swim_cli(
+        "motor", "--fish", FISH, "--coulomb-friction-n-m", "0.1", "--frequencies", "1,2"
     )
     assert status == 0, err
     assert "nan" not in out.lower() and "inf" not in out.lower()
     assert "does not move" in out
-    assert out.strip().splitlines()[-1].startswith(
-        "cannot start the tail: the motor cannot turn itself at 12 V"
+    assert (
+        out.strip()
+        .splitlines()[-1]
+        .startswith("cannot start the tail: the motor cannot turn itself at 12 V")
     )
 
 
 # ---- the command line
 
 
-def test_motor_prints_the_table_the_limits_and_writes_a_png(capsys, tmp_path):
+def test_motor_prints_the_table_the_limits_and_writes_a_png(swim_cli, tmp_path):
     figure = tmp_path / "torque_speed.png"
-    status, out, err = run_cli(
-        capsys, "motor", "--config", CONFIG / "oscillatory.yaml", "--fish", FISH,
+    status, out, err = swim_cli("motor", "--config", CONFIG / "oscillatory.yaml", "--fish", FISH,
         "--frequencies", "1,2,3", "--figure", figure,
     )  # fmt: skip
     assert status == 0, err
@@ -283,16 +270,15 @@ def test_motor_prints_the_table_the_limits_and_writes_a_png(capsys, tmp_path):
         assert image.size[0] > 400 and image.size[1] > 300
 
 
-def test_motor_options_set_the_motor_and_the_datasheet_form_agrees(capsys):
+def test_motor_options_set_the_motor_and_the_datasheet_form_agrees(swim_cli):
     # The default motor's own stall torque and no-load speed, given as datasheet figures with its
     # friction: the same motor, so the same answer.
     p = DcMotorParameters()
     friction = ("--coulomb-friction-n-m", p.coulomb_friction_n_m,
                 "--viscous-friction-n-m-s", p.viscous_friction_n_m_s)  # fmt: skip
-    _, default, _ = run_cli(capsys, "motor", "--fish", FISH, "--surroundings", "air")
+    _, default, _ = swim_cli("motor", "--fish", FISH, "--surroundings", "air")
     frictionless = dataclasses.replace(p, coulomb_friction_n_m=0.0, viscous_friction_n_m_s=0.0)
-    status, datasheet, err = run_cli(
-        capsys, "motor", "--fish", FISH, "--surroundings", "air", *friction,
+    status, datasheet, err = swim_cli("motor", "--fish", FISH, "--surroundings", "air", *friction,
         "--stall-torque-n-m", repr(frictionless.stall_torque_n_m),
         "--no-load-speed-rad-s", repr(frictionless.no_load_speed_rad_s),
     )  # fmt: skip
@@ -319,9 +305,9 @@ def test_motor_options_set_the_motor_and_the_datasheet_form_agrees(capsys):
         (("--config", "{tmp}/none.yaml"), "no such file"),
     ],
 )
-def test_bad_motor_options_are_one_line_and_status_2(capsys, tmp_path, arguments, words):
+def test_bad_motor_options_are_one_line_and_status_2(swim_cli, tmp_path, arguments, words):
     filled = [argument.replace("{tmp}", str(tmp_path)) for argument in arguments]
-    status, out, err = run_cli(capsys, "motor", "--fish", FISH, *filled)
+    status, out, err = swim_cli("motor", "--fish", FISH, *filled)
     assert status == 2
     assert out == ""
     assert len(err.strip().splitlines()) == 1

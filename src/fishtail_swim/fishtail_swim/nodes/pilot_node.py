@@ -25,7 +25,6 @@ carrier stops.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 from typing import Any
@@ -46,7 +45,7 @@ from fishtail_common.interface import (
     Level,
     Status,
 )
-from fishtail_common.parameters import ParameterSpec
+from fishtail_common.parameters import ParameterSpec, read_only
 from fishtail_common.ros import (
     NodeFactory,
     SuiteNodeBase,
@@ -79,14 +78,10 @@ CONTROL_RATE = ParameterSpec(
 )
 
 
-def _read_only(specs: tuple[ParameterSpec, ...]) -> tuple[ParameterSpec, ...]:
-    return tuple(dataclasses.replace(spec, read_only=True) for spec in specs)
-
-
 #: Every parameter of the node; the fish, the tail and the steering are fixed for its run.
 PARAMETERS: tuple[ParameterSpec, ...] = (
-    *_read_only((*TAIL_PARAMETERS, *FISH_PARAMETERS, *STEERING_PARAMETERS)),
-    *_read_only(CONTROL_PARAMETERS),
+    *read_only((*TAIL_PARAMETERS, *FISH_PARAMETERS, *STEERING_PARAMETERS)),
+    *read_only(CONTROL_PARAMETERS),
     CMD_TIMEOUT,
     ODOM_TIMEOUT,
     CONTROL_RATE,

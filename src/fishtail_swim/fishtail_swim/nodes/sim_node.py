@@ -34,7 +34,6 @@ run, and a run-time change is refused by ROS.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import sys
 from typing import TYPE_CHECKING, Any
@@ -55,7 +54,7 @@ from fishtail_common.interface import (
     Level,
     Status,
 )
-from fishtail_common.parameters import ParameterSpec
+from fishtail_common.parameters import ParameterSpec, read_only
 from fishtail_common.ros import (
     ListenedPublisher,
     NodeFactory,
@@ -117,12 +116,8 @@ MAX_STEP = ParameterSpec(
 )
 
 
-def _read_only(specs: tuple[ParameterSpec, ...]) -> tuple[ParameterSpec, ...]:
-    return tuple(dataclasses.replace(spec, read_only=True) for spec in specs)
-
-
 #: Every parameter of the node, all read-only.
-PARAMETERS: tuple[ParameterSpec, ...] = _read_only(
+PARAMETERS: tuple[ParameterSpec, ...] = read_only(
     (
         *TAIL_PARAMETERS,
         *FISH_PARAMETERS,
