@@ -40,11 +40,8 @@ from fishtail_common.testing import (
     isolated_ros_environment,
 )
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
-from measure import cpu_seconds
+from measure import GEOMETRY, OUT, cpu_seconds
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "bench" / "out"
-GEOMETRY = ROOT / "config" / "oscillatory.yaml"
 RATE_HZ = 1000.0
 SPEED_RAD_S = 4.0
 WARMUP_S = 1.0

@@ -92,12 +92,8 @@ from fishtail_common.testing import (
     isolated_ros_environment,
 )
 from fishtail_msgs.msg import CarrierSpeedProfile
-from measure import cpu_seconds
+from measure import FISH, GEOMETRY, OUT, ROOT, cpu_seconds
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "bench" / "out"
-GEOMETRY = ROOT / "config" / "oscillatory.yaml"
-FISH = ROOT / "config" / "fish.yaml"
 #: The loop's nodes: the driver and the kinematics node of the suite, the simulator, the pilot.
 NODES = (*(node for node in SUITE_NODES if node.name != "monitor"), SWIM_NODE, PILOT_NODE)
 SPEED_M_S = 0.3

@@ -58,9 +58,8 @@ from fishtail_driver.serial_backend import SerialBackend
 from fishtail_driver.serial_config import SerialConfig
 from fishtail_driver.sim_load import tail_load_from_files
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from measure import OUT
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "bench" / "out"
 BEATS_HZ = (0.5, 1.0, 2.0, 3.0, 4.0)
 DEPTHS = (0.1, 0.25, 0.5)
 PHASE_RAD = 1.0

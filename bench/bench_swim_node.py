@@ -51,12 +51,8 @@ from fishtail_common.testing import (
     isolated_ros_environment,
 )
 from fishtail_msgs.msg import TailState
-from measure import cpu_seconds
+from measure import FISH, GEOMETRY, OUT, ROOT, cpu_seconds
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "bench" / "out"
-GEOMETRY = ROOT / "config" / "oscillatory.yaml"
-FISH = ROOT / "config" / "fish.yaml"
 SPEED_RAD_S = 4.0
 WARMUP_S = 2.0
 WINDOW_S = 20.0

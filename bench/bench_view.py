@@ -36,12 +36,8 @@ from fishtail_common.testing import (
     claim_domain,
     isolated_ros_environment,
 )
-from measure import cpu_seconds
+from measure import FISH, GEOMETRY, OUT, ROOT, cpu_seconds
 
-ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "bench" / "out"
-GEOMETRY = ROOT / "config" / "oscillatory.yaml"
-FISH = ROOT / "config" / "fish.yaml"
 SPEED_RAD_S = 4.0
 WARMUP_S = 3.0
 WINDOW_S = 10.0

@@ -1,4 +1,4 @@
-"""What every benchmark measures the same way: best-of timing, one core, CPU time, verdicts.
+"""What every benchmark shares: the workspace paths, best-of timing, one core, CPU time, verdicts.
 
 Imported by the bench/bench_*.py scripts (run from the repository root, so bench/ is on their
 path); not a benchmark itself (`make bench` runs bench/bench_*.py only).
@@ -10,8 +10,15 @@ import math
 import os
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 TICKS_PER_S = os.sysconf("SC_CLK_TCK")
+
+#: The workspace, where the benchmarks write (bench/out/) and what they run (config/).
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "bench" / "out"
+GEOMETRY = ROOT / "config" / "oscillatory.yaml"
+FISH = ROOT / "config" / "fish.yaml"
 
 
 def pin_to_one_core() -> str:
