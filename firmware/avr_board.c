@@ -1,11 +1,13 @@
 /*
  * avr_board: the ROSArduinoBridge firmware (an Arduino Nano build) running in simavr.
  *
- *   avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast]
+ *   avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast] [--watch ADDR:SIZE]...
+ *             [--poke ADDR:SIZE=VALUE]...
  *
  * The ATmega328P runs at 16 MHz, paced to wall-clock time (unless --fast). Its UART is a
- * pseudo-terminal (simavr's uart_pty); the slave's path is printed on stdout ("P <path>") and, with
- * --link, a symlink at PATH points at it (removed on exit).
+ * pseudo-terminal (simavr's uart_pty); once the firmware has started (2 ms of simulated time) the
+ * slave's path is printed on stdout ("P <path>") and, with --link, a symlink at PATH points at it
+ * (removed on exit).
  *
  * --exchange: lockstep with a motor model on stdin/stdout, one exchange per millisecond of
  * simulated time. This side writes
@@ -18,7 +20,16 @@
  * that the firmware's pin-change interrupts count them. Without --exchange the motors are not
  * read and the encoders stand still.
  *
- * Ends on SIGINT/SIGTERM/SIGHUP, or at end of input with --exchange.
+ * --watch ADDR:SIZE (data-space address, 1, 2 or 4 bytes; repeatable): each D line also carries
+ * the firmware variable there, unsigned little-endian, in the order given, so that the motor side
+ * sees the firmware's state per millisecond (its PID frames, its counts) without changing it.
+ * --poke ADDR:SIZE=VALUE (repeatable): write VALUE there at the second simulated millisecond,
+ * after the C runtime cleared RAM and setup() ran: a board that powered up with its encoder
+ * counts elsewhere (the 32-bit wrap without 2^31 edges).
+ *
+ * SIGUSR1 resets the ATmega (what DTR does through the Nano's auto-reset capacitor): the firmware
+ * boots again, its counts and loop at 0; simulated time keeps running. Ends on SIGINT/SIGTERM/
+ * SIGHUP, or at end of input with --exchange.
  */
 #include <errno.h>
 #include <signal.h>
@@ -34,6 +45,9 @@
 #include "sim_elf.h"
 
 #define CPU_HZ 16000000UL
+#define USAGE                                                                              \
+	"usage: avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast] [--watch ADDR:SIZE]... " \
+	"[--poke ADDR:SIZE=VALUE]...\n"
 #define EXCHANGE_CYCLES (CPU_HZ / 1000) /* one exchange per simulated millisecond */
 
 /* ATmega328P data-space addresses of the registers the L298 pins depend on. */
@@ -69,6 +83,18 @@ typedef struct {
 static avr_t *avr;
 static uart_pty_t uart;
 static encoder_t encoders[2] = {{'D', 2, 3, 0, 0, 0}, {'C', 4, 5, 0, 0, 0}};
+
+/* A firmware variable in data space: --watch reports it, --poke sets it. */
+typedef struct {
+	unsigned address, size;
+	unsigned long value;
+} variable_t;
+
+#define MAX_VARIABLES 16
+static variable_t watches[MAX_VARIABLES], pokes[MAX_VARIABLES];
+static int watch_count, poke_count;
+static volatile sig_atomic_t reset_requested;
+static avr_cycle_count_t cycles_before_resets; /* simulated time survives a reset */
 static FILE *exchange_out; /* the protocol's stdout; stdout itself is stderr (library chatter) */
 static int exchange, fast;
 static const char *link_path;
@@ -117,6 +143,57 @@ static avr_cycle_count_t encoder_edge(avr_t *a, avr_cycle_count_t when, void *pa
 	return enc->shown == enc->target ? 0 : when + enc->interval;
 }
 
+static unsigned long read_variable(const variable_t *v)
+{
+	unsigned long value = 0;
+	for (unsigned i = 0; i < v->size; i++)
+		value |= (unsigned long)avr->data[v->address + i] << (8 * i);
+	return value;
+}
+
+static void write_variable(const variable_t *v)
+{
+	for (unsigned i = 0; i < v->size; i++)
+		avr->data[v->address + i] = (v->value >> (8 * i)) & 0xff;
+}
+
+/* "ADDR:SIZE" or, with `value`, "ADDR:SIZE=VALUE" (numbers in C notation); 0 when malformed. */
+static int parse_variable(const char *text, variable_t *v, int with_value)
+{
+	char *end;
+	v->address = strtoul(text, &end, 0);
+	if (*end != ':')
+		return 0;
+	v->size = strtoul(end + 1, &end, 0);
+	if (v->size != 1 && v->size != 2 && v->size != 4)
+		return 0;
+	if (with_value) {
+		if (*end != '=')
+			return 0;
+		v->value = strtoul(end + 1, &end, 0);
+	}
+	return *end == 0 && v->address >= 0x100 && v->address + v->size <= 0x900;
+}
+
+/* Simulated time since start, across resets. */
+static avr_cycle_count_t simulated_cycles(void)
+{
+	return cycles_before_resets + avr->cycle;
+}
+
+static int make_link(const char *target);
+
+/* The pty is usable once the firmware has started and --poke is applied: only then are its
+ * path printed ("P <path>") and the link made, so that a host never talks to a half-made board. */
+static int announce(void)
+{
+	if (link_path && make_link(uart.pty.slavename) != 0)
+		return -1;
+	fprintf(exchange_out, "P %s\n", uart.pty.slavename);
+	fflush(exchange_out);
+	return 0;
+}
+
 static double seconds_since(const struct timespec *start)
 {
 	struct timespec now;
@@ -128,7 +205,17 @@ static double seconds_since(const struct timespec *start)
 static avr_cycle_count_t millisecond(avr_t *a, avr_cycle_count_t when, void *param)
 {
 	(void)param;
-	double simulated_s = (double)a->cycle / CPU_HZ;
+	double simulated_s = (double)simulated_cycles() / CPU_HZ;
+	static int announced; /* once: a reset boots the board with its counts at 0 */
+	if (!announced && a->cycle >= 2 * EXCHANGE_CYCLES) {
+		announced = 1;
+		for (int i = 0; i < poke_count; i++)
+			write_variable(&pokes[i]);
+		if (announce() != 0) {
+			stop_requested = 1;
+			return 0;
+		}
+	}
 	if (!fast) {
 		double ahead_s = simulated_s - seconds_since(&wall_start);
 		if (-ahead_s > most_behind_s)
@@ -141,8 +228,11 @@ static avr_cycle_count_t millisecond(avr_t *a, avr_cycle_count_t when, void *par
 	if (exchange) {
 		int left = pwm_of(&LEFT_FORWARD) - pwm_of(&LEFT_BACKWARD);
 		int right = pwm_of(&RIGHT_FORWARD) - pwm_of(&RIGHT_BACKWARD);
-		fprintf(exchange_out, "D %llu %d %d\n", (unsigned long long)(a->cycle / (CPU_HZ / 1000000)),
-			left, right);
+		fprintf(exchange_out, "D %llu %d %d",
+			(unsigned long long)(simulated_cycles() / (CPU_HZ / 1000000)), left, right);
+		for (int i = 0; i < watch_count; i++)
+			fprintf(exchange_out, " %lu", read_variable(&watches[i]));
+		fputc('\n', exchange_out);
 		fflush(exchange_out);
 		long counts[2];
 		if (scanf("%ld %ld", &counts[0], &counts[1]) != 2) {
@@ -169,8 +259,28 @@ static avr_cycle_count_t millisecond(avr_t *a, avr_cycle_count_t when, void *par
 
 static void on_signal(int signum)
 {
-	(void)signum;
-	stop_requested = 1;
+	if (signum == SIGUSR1)
+		reset_requested = 1;
+	else
+		stop_requested = 1;
+}
+
+/* Reset the MCU as DTR does, keeping the UART's pty, the encoders' pins and simulated time. */
+static void reset_board(void)
+{
+	avr_cycle_count_t before = avr->cycle;
+	avr_reset(avr);
+	/* avr_reset clears the cycle timers; whether it also zeroes the cycle counter depends on the
+	 * simavr version, so carry the time over only when it did. */
+	if (avr->cycle < before)
+		cycles_before_resets += before - avr->cycle;
+	for (int i = 0; i < 2; i++) {
+		avr_cycle_timer_cancel(avr, encoder_edge, &encoders[i]);
+		encoders[i].target = encoders[i].shown;
+		show_encoder(&encoders[i]);
+	}
+	avr_cycle_timer_cancel(avr, millisecond, NULL);
+	avr_cycle_timer_register(avr, EXCHANGE_CYCLES - avr->cycle % EXCHANGE_CYCLES, millisecond, NULL);
 }
 
 /* Point link_path at the pty, replacing any old link atomically. */
@@ -196,15 +306,21 @@ int main(int argc, char **argv)
 			exchange = 1;
 		else if (!strcmp(argv[i], "--fast"))
 			fast = 1;
+		else if (!strcmp(argv[i], "--watch") && i + 1 < argc && watch_count < MAX_VARIABLES &&
+			 parse_variable(argv[i + 1], &watches[watch_count], 0))
+			watch_count++, i++;
+		else if (!strcmp(argv[i], "--poke") && i + 1 < argc && poke_count < MAX_VARIABLES &&
+			 parse_variable(argv[i + 1], &pokes[poke_count], 1))
+			poke_count++, i++;
 		else if (argv[i][0] != '-' && !elf_path)
 			elf_path = argv[i];
 		else {
-			fprintf(stderr, "usage: avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast]\n");
+			fprintf(stderr, USAGE);
 			return 2;
 		}
 	}
 	if (!elf_path) {
-		fprintf(stderr, "usage: avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast]\n");
+		fprintf(stderr, USAGE);
 		return 2;
 	}
 	/* Our lines go to the real stdout; simavr's and uart_pty's notes go to stderr. */
@@ -235,27 +351,29 @@ int main(int argc, char **argv)
 	for (int i = 0; i < 2; i++)
 		show_encoder(&encoders[i]);
 
-	if (link_path && make_link(uart.pty.slavename) != 0)
-		return 1;
-	fprintf(exchange_out, "P %s\n", uart.pty.slavename);
-	fflush(exchange_out);
 
 	struct sigaction action = {0};
 	action.sa_handler = on_signal;
 	sigaction(SIGINT, &action, NULL);
 	sigaction(SIGTERM, &action, NULL);
 	sigaction(SIGHUP, &action, NULL);
+	sigaction(SIGUSR1, &action, NULL);
 	signal(SIGPIPE, SIG_IGN);
 
 	clock_gettime(CLOCK_MONOTONIC, &wall_start);
 	avr_cycle_timer_register(avr, EXCHANGE_CYCLES, millisecond, NULL);
 	int state = cpu_Running;
-	while (!stop_requested && state != cpu_Done && state != cpu_Crashed)
+	while (!stop_requested && state != cpu_Done && state != cpu_Crashed) {
+		if (reset_requested) {
+			reset_requested = 0;
+			reset_board();
+		}
 		state = avr_run(avr);
+	}
 	if (link_path)
 		unlink(link_path);
 	fprintf(stderr, "avr_board: %.3f s simulated in %.3f s, at most %.0f ms behind\n",
-		(double)avr->cycle / CPU_HZ, seconds_since(&wall_start), most_behind_s * 1e3);
+		(double)simulated_cycles() / CPU_HZ, seconds_since(&wall_start), most_behind_s * 1e3);
 	/* Not uart_pty_stop(): joining its reader thread can block; the process ends it. */
 	fflush(exchange_out);
 	_exit(state == cpu_Crashed ? 1 : 0);

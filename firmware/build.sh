@@ -5,6 +5,7 @@
 #    build/firmware/sketch, joins its .ino files into one (main file first, as the Arduino IDE
 #    does) and builds the ELF for an Arduino Nano (ATmega328P, L298N driver, encoders on the
 #    Arduino's pins) with Arduino.mk: build/firmware/ROSArduinoBridge.elf;
+#    and lists its variables' addresses (build/firmware/symbols.txt);
 # 2. compiles firmware/avr_board.c on libsimavr: build/firmware/avr_board.
 # Exits 3 with the install line when the AVR toolchain or simavr is missing.
 set -euo pipefail
@@ -69,6 +70,9 @@ make -s -C "$OUT/sketch" >"$OUT/sketch-build.log" 2>&1 || {
   exit 1
 }
 cp "$OUT/sketch/build-nano-atmega328/ROSArduinoBridge.elf" "$OUT/ROSArduinoBridge.elf"
+# The firmware's global variables (name, data-space address, size), for the simulator's --watch
+# and --poke (fishtail_driver.avr_board reads them).
+avr-nm -S "$OUT/ROSArduinoBridge.elf" | awk '$3 ~ /^[bBdD]$/ {print $4, $1, $2}' >"$OUT/symbols.txt"
 avr-size "$OUT/ROSArduinoBridge.elf" | tail -n 1 | awk '{print "make firmware: flash " $1+$2 " B, RAM " $2+$3 " B"}'
 
 cc -O2 -Wall -Wextra -std=gnu11 -I/usr/include/simavr -o "$OUT/avr_board" \
