@@ -36,6 +36,7 @@ from typing import IO
 from fishtail_driver.board_motors import DcChannelMotor
 from fishtail_driver.protocol import PWM_MAX, Scale
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD, tail_load_from_files
+from fishtail_driver.usb_cable import UsbCable
 from fishtail_swim.dynamics.dc_motor import (
     DcMotorParameters,
     LoadInertia,
@@ -191,12 +192,18 @@ class SimulatedBoard:
         fast: bool = False,
         observer: Callable[[int, tuple[int, int], tuple[int, ...]], None] | None = None,
         stderr: IO[bytes] | None = None,
+        cable: bool = False,
     ) -> None:
         """Start the simulator (FileNotFoundError if not built).
 
-        :attr:`ready` is set once the pty is there and the firmware has started.
+        :attr:`ready` is set once the pty is there and the firmware has started. With ``cable``
+        the host's port at ``link`` is a :class:`~fishtail_driver.usb_cable.UsbCable` that
+        :meth:`unplug` and :meth:`replug` pull and plug back; without, the link points at the
+        simulator's UART pty itself.
         """
         self.link = link
+        self._with_cable = cable
+        self.cable: UsbCable | None = None
         self.side = MotorSide(motors, self._observe)
         self._observer = observer
         self._lock = threading.Lock()
@@ -205,7 +212,7 @@ class SimulatedBoard:
         self.path: str | None = None
         self.ready = threading.Event()
         self.process = subprocess.Popen(
-            simulator_command(build_dir, link, fast, extra),
+            simulator_command(build_dir, None if cable else link, fast, extra),
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, text=True, bufsize=1,
             start_new_session=True,
         )  # fmt: skip
@@ -213,6 +220,8 @@ class SimulatedBoard:
         self._thread.start()
 
     def _announce(self, path: str) -> None:
+        if self._with_cable:
+            self.cable = UsbCable(path, self.link)
         self.path = path
 
     def _observe(self, now_us: int, pwm: tuple[int, int], watched: tuple[int, ...]) -> None:
@@ -247,8 +256,21 @@ class SimulatedBoard:
         """Reset the board (DTR)."""
         self.process.send_signal(signal.SIGUSR1)
 
+    def unplug(self) -> None:
+        """Pull the USB cable (``cable`` only): the host's port vanishes, the board runs on."""
+        assert self.cable is not None, "started without cable=True"
+        self.cable.unplug()
+
+    def replug(self) -> None:
+        """Plug it back in (``cable`` only): a new port at the link; USB power resets the board."""
+        assert self.cable is not None, "started without cable=True"
+        self.reset()
+        self.cable.replug()
+
     def stop(self) -> int:
         """End the simulator; its exit status."""
+        if self.cable is not None:
+            self.cable.close()
         if self.process.poll() is None:
             self.process.send_signal(signal.SIGTERM)
         status = self.process.wait(10.0)

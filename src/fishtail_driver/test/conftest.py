@@ -248,6 +248,14 @@ class BoardUnderTest:
         """Reset the board, as DTR does."""
         raise NotImplementedError
 
+    def unplug(self) -> None:
+        """Pull the USB cable: the port and the link vanish."""
+        raise NotImplementedError
+
+    def replug(self) -> None:
+        """Plug it back in: a new port at the link, the board power-cycled."""
+        raise NotImplementedError
+
     def stop(self) -> None:
         """End it."""
         raise NotImplementedError
@@ -271,6 +279,14 @@ class FakeUnderTest(BoardUnderTest):
         """The fake board's reset switch (SIGUSR1 of fishtail-fake-board)."""
         self.handle.board.request_reset()
 
+    def unplug(self) -> None:
+        """The fake board's unplug switch."""
+        self.handle.board.unplug()
+
+    def replug(self) -> None:
+        """The fake board's replug switch (a power cycle)."""
+        self.handle.board.replug()
+
     def stop(self) -> None:
         """Stopped by the fake_board fixture."""
 
@@ -292,6 +308,14 @@ class FirmwareUnderTest(BoardUnderTest):
     def reset(self) -> None:
         """SIGUSR1 to the simulator: the ATmega resets."""
         self.board.reset()
+
+    def unplug(self) -> None:
+        """Pull the simulated USB cable (:class:`fishtail_driver.usb_cable.UsbCable`)."""
+        self.board.unplug()
+
+    def replug(self) -> None:
+        """Plug it back in; the ATmega resets as USB power returns."""
+        self.board.replug()
 
     def stop(self) -> None:
         """End the simulator."""
@@ -322,7 +346,9 @@ def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]
             folder = request.getfixturevalue("firmware_build")
             extra = encoder_offset_pokes(firmware_variables(folder), encoder_offset)
             with open(tmp_path / f"either{len(started)}.stderr", "wb") as stderr:
-                simulated = SimulatedBoard(_dc_motors(2), link, folder, extra, stderr=stderr)
+                simulated = SimulatedBoard(
+                    _dc_motors(2), link, folder, extra, stderr=stderr, cable=True
+                )
             board = FirmwareUnderTest(simulated)
             assert simulated.ready.wait(10.0), "the simulator did not start"
         started.append(board)

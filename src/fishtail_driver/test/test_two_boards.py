@@ -9,9 +9,9 @@ Durations and speeds are measured on the board's own clock (``BoardUnderTest.clo
 host's for the fake board, the simulated one for the firmware), so a simulator that falls behind
 wall time on a busy host makes a test slower, never wrong. Time limits only bound a failing wait.
 
-Behaviours only the fake board can show (corrupted and lost replies, slow replies, the USB cable
-pulled by a fault switch) stay in test_serial_backend.py and test_driver_serial.py, fake only:
-the simulator has no fault injection and does not unplug its pty.
+Behaviours only the fake board can show (corrupted and lost replies, slow replies, scheduled
+faults) stay in test_serial_backend.py and test_driver_serial.py, fake only: the firmware in the
+simulator has no fault injection.
 """
 
 from __future__ import annotations
@@ -160,3 +160,44 @@ def test_the_stop_gets_through_on_close(either_board, serial_backend, raw_port, 
     wait_board_time(board, 0.5, wait_until)
     assert port.counts() == standing, f"{board.kind}: still turning after the stop"
     assert board.clock() < closed + 2.0, "measured after the auto-stop would have stopped it"
+
+
+def test_unplug_and_replug(either_board, serial_backend, wait_until):
+    """The USB cable pulled: ERROR; plugged back (board power-cycled): WARN, the angle goes on."""
+    board = either_board()
+    backend = serial_backend(
+        board.link, poll_rate_hz=100.0, reconnect_min_s=0.05, reconnect_max_s=0.2, **POLOLU
+    )
+    wait_until(lambda: level(backend) == 0, PATIENCE_S, "status OK")
+    backend.set_speed(SPEED_RAD_S)
+    readings = collect_readings(backend, board, 1.0, wait_until)
+    board.unplug()
+    wait_until(lambda: level(backend) == 2, PATIENCE_S, "ERROR after the unplug")
+    assert "link lost" in backend.status()[1] or "does not exist" in backend.status()[1]
+    held = readings[-1].angle_rad
+    board.replug()
+    wait_until(lambda: level(backend) == 1, PATIENCE_S, "WARN after the replug (phase re-based)")
+    after = collect_readings(backend, board, 1.0, wait_until)
+    assert abs(after[0].angle_rad - held) < 0.3, f"{board.kind}: the angle jumped at the replug"
+    assert after[-1].angle_rad > after[0].angle_rad + 1.0, f"{board.kind}: no motion after it"
+    values = backend.status()[2]
+    assert int(values["disconnects"]) >= 1 and int(values["reconnects"]) >= 1
+    assert int(values["board_resets"]) >= 1, f"{board.kind}: the replugged board kept its count"
+
+
+def test_the_driver_stops_the_motor_on_sigint(either_board, driver_run, raw_port, wait_until):
+    """The driver node on the board: turning it; SIGINT: exits 0 and the motor stands at once."""
+    board = either_board()
+    run = driver_run(
+        board.link, encoder_counts_per_revolution=64, gear_ratio=30.0, max_speed_rad_s=10.0
+    )
+    run.start_motion(SPEED_RAD_S)
+    run.wait(lambda: run.angle() > 1.0, PATIENCE_S, "the joint_state angle to advance")
+    run.stop()
+    stopped = board.clock()
+    port = raw_port(board.link)
+    wait_board_time(board, 0.3, wait_until)  # coasting down
+    standing = port.counts()
+    wait_board_time(board, 0.5, wait_until)
+    assert port.counts() == standing, f"{board.kind}: still turning after the driver's SIGINT"
+    assert board.clock() < stopped + 2.0, "measured after the auto-stop would have stopped it"
