@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -133,6 +134,32 @@ def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain, run):
     lines = [line for line in output.splitlines() if " N m, " in line]
     assert lines, output
     assert any(" OK: symmetric" in line for line in lines), output
+
+
+def test_the_suite_runs_on_the_firmware_in_simavr(ros_domain):
+    """``--firmware``: the driver on ROSArduinoBridge in simavr; the carrier turns, all stop.
+
+    One layout only (the simulator alone needs most of a core). Skips where the AVR toolchain
+    is missing (make firmware says why).
+    """
+    root = Path(__file__).resolve().parents[1]
+    build = subprocess.run([str(root / "firmware" / "build.sh")], capture_output=True,
+                           text=True, check=False)  # fmt: skip
+    if build.returncode in (2, 3):  # no toolchain / no sketch: the reason is the first line
+        pytest.skip(f"firmware in simavr: {(build.stderr.strip().splitlines() or [''])[0]}")
+    assert build.returncode == 0, build.stdout + build.stderr
+    completed = subprocess.run(
+        [*RUN, "--firmware", "--speed", "8", "--duration", "8"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+    )  # fmt: skip
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 0, output
+    assert "on the firmware in simavr" in output and "[board] /dev/" in output, output
+    assert "driver up: backend serial" in output, output
+    carriers = [float(m) for m in re.findall(r"carrier +([0-9.]+) rad", output)]
+    assert carriers and carriers[-1] > 5.0, output  # turned, whatever pace the host kept
+    assert "stop acknowledged by the board" in output, output
+    assert "non-zero status" not in output and "killed" not in output, output
 
 
 def child_processes(pid: int) -> list[tuple[int, str]]:

@@ -22,6 +22,11 @@ carrier instead of this console: ``--goal X,Y`` sends the fish to a point of the
 position, heading and distance to go. ``--steering pivot`` steers with the pivot actuator (the
 driver's simulated one) instead of the carrier's modulation.
 
+``--firmware`` runs the driver on the real motor-board firmware instead of a simulated motor:
+ROSArduinoBridge in simavr with the DC gear motor (``fishtail-avr-board``, built by ``make
+firmware``; :mod:`fishtail_bringup.firmware_board`), over a serial link; ``--load`` then makes
+that motor turn the tail.
+
 Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
 kills any that hang. A node that dies early ends the run with exit status 1.
 """
@@ -30,10 +35,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
+from fishtail_bringup import firmware_board
 from fishtail_bringup.console import (
     GoalRoute,
     fish_text,
@@ -172,6 +180,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="the simulated motor (the driver's motor_model; default first_order): dc is the DC "
         "gear motor under the board's speed loop, with gear_ratio 30 and "
         "encoder_counts_per_revolution 64 (its gearbox and encoder; --driver-param overrides)",
+    )
+    parser.add_argument(
+        "--firmware",
+        action="store_true",
+        help="the driver on the real motor-board firmware (ROSArduinoBridge in simavr, make "
+        "firmware) over a serial link, its motor the DC gear motor (instead of --motor)",
     )
     parser.add_argument(
         "--load",
@@ -394,8 +408,13 @@ def main(argv: list[str] | None = None) -> int:
     piloted = arguments.pilot or arguments.goal is not None or arguments.square is not None
     if arguments.steering is not None and not piloted:
         parser.error("--steering is the pilot's: add --pilot (or --goal, --square)")
-    if loaded and arguments.motor != "dc":
+    if arguments.firmware and arguments.motor is not None:
+        parser.error("--firmware drives the firmware's DC motor: leave out --motor")
+    if loaded and arguments.motor != "dc" and not arguments.firmware:
         parser.error(f"--load {arguments.load} needs --motor dc (only the DC motor feels a load)")
+    if arguments.firmware and (missing := firmware_board.missing_firmware()):
+        print(f"fishtail-run: error: --firmware: {missing}", file=sys.stderr)
+        return 2
     try:
         config = arguments.config or default_parameter_file(arguments.mechanism)
         fish_config = None
@@ -422,19 +441,25 @@ def main(argv: list[str] | None = None) -> int:
     steering = arguments.steering or STEERING.default
     pilot_params = [f"{STEERING.name}:={steering}"] if piloted else []
     pivot_params = [f"{PIVOT_ACTUATOR}:=sim"] if piloted and steering == PIVOT_STEERING else []
+    boards: dict[str, list[str]] = {}
+    motor_params = motor_parameters(arguments.motor, arguments.load)
+    if arguments.firmware:
+        link = Path(tempfile.mkdtemp(prefix="fishtail-firmware-")) / firmware_board.LINK_NAME
+        command = firmware_board.board_command(link, arguments.load, config, fish_config)
+        boards[firmware_board.BOARD_LABEL] = command
+        motor_params = firmware_board.driver_parameters(link)
     # The driver's own parameters after --motor's, so that --driver-param overrides them.
-    driver_params = (
-        motor_parameters(arguments.motor, arguments.load) + pivot_params + arguments.driver_param
-    )
+    driver_params = motor_params + pivot_params + arguments.driver_param
     supervisor = Supervisor(
         config,
         arguments.namespace,
         driver_params,
         nodes,
         fish_config,
-        driver_reads_fish=loaded,
+        driver_reads_fish=loaded and not arguments.firmware,
         one_process=arguments.one_process,
         pilot_params=pilot_params,
+        boards=boards,
     )
     speed = None if arguments.no_command or piloted else arguments.speed
     route = None
@@ -449,6 +474,7 @@ def main(argv: list[str] | None = None) -> int:
         f"fishtail-run: {', '.join(node.name for node in nodes)} with {config}, "
         + ("in one process, " if arguments.one_process else "")
         + (f"{arguments.motor} motor, " if arguments.motor else "")
+        + ("on the firmware in simavr, " if arguments.firmware else "")
         + (f"turning the tail ({arguments.load}), " if loaded else "")
         + (
             f"piloted ({steering} steering)"
@@ -495,6 +521,8 @@ def main(argv: list[str] | None = None) -> int:
         executor.shutdown()
         console.node.destroy_node()
         rclpy.try_shutdown()
+        for command in boards.values():  # the link's folder (the board removed the link)
+            shutil.rmtree(Path(command[command.index("--link") + 1]).parent, ignore_errors=True)
     print(f"fishtail-run: last state: {summary}")
     for name, status in early_exit:
         print(f"fishtail-run: error: node process {name} exited early with status {status}")

@@ -37,14 +37,17 @@ class Supervisor:
         driver_reads_fish: bool = False,
         one_process: bool = False,
         pilot_params: list[str] | None = None,
+        boards: dict[str, list[str]] | None = None,
     ) -> None:
         """Remember how to start the nodes.
 
         ``fish_config``, the fish's parameter file, goes to the simulator, and to the driver with
         ``driver_reads_fish`` (its motor turns the tail), and to the pilot. ``one_process``: host
         the nodes in one process (:meth:`commands`). ``pilot_params`` (``NAME:=VALUE``) go to the
-        pilot.
+        pilot. ``boards``: commands by label of processes the nodes talk to (a simulated motor
+        board), started before the nodes and stopped after them.
         """
+        self.boards = boards or {}
         self.pilot_params = pilot_params or []
         self.one_process = one_process
         self.nodes = nodes
@@ -99,8 +102,8 @@ class Supervisor:
         return {ONE_PROCESS_LABEL: self.one_process_command(hosted), **alone}
 
     def start(self) -> None:
-        """Start every node process in its own process group."""
-        for label, command in self.commands().items():
+        """Start the boards, then every node process, each in its own process group."""
+        for label, command in {**self.boards, **self.commands()}.items():
             process = subprocess.Popen(
                 command,
                 stdout=subprocess.PIPE,
@@ -130,8 +133,17 @@ class Supervisor:
         return [(n, p.returncode) for n, p in self.processes.items() if p.poll() is not None]
 
     def stop(self) -> dict[str, int | None]:
-        """SIGINT every node's group, wait, kill what hangs; return the exit statuses."""
-        for process in self.processes.values():
+        """SIGINT every node's group, wait, kill what hangs, then the boards; the exit statuses.
+
+        The boards last: a driver's stop command on exit must find its board there.
+        """
+        nodes = {name: p for name, p in self.processes.items() if name not in self.boards}
+        boards = {name: p for name, p in self.processes.items() if name in self.boards}
+        return {**self._stop(nodes), **self._stop(boards)}
+
+    def _stop(self, processes: dict[str, subprocess.Popen]) -> dict[str, int | None]:
+        """SIGINT each process's group, wait, kill what hangs; the exit statuses."""
+        for process in processes.values():
             if process.poll() is None:
                 try:
                     os.killpg(process.pid, signal.SIGINT)
@@ -139,7 +151,7 @@ class Supervisor:
                     pass
         deadline = time.monotonic() + SHUTDOWN_WAIT_S
         statuses: dict[str, int | None] = {}
-        for name, process in self.processes.items():
+        for name, process in processes.items():
             try:
                 statuses[name] = process.wait(timeout=max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:

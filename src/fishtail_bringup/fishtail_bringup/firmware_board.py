@@ -1,0 +1,48 @@
+"""``fishtail-run --firmware``: the suite's driver on the real motor-board firmware in simavr.
+
+The board is ``fishtail-avr-board`` (:mod:`fishtail_driver.avr_board`: ROSArduinoBridge built for
+an Arduino Nano by ``make firmware``, run in simavr, its motor the project's DC gear motor with
+the Pololu 37D's 30:1 gearbox and 64-count encoder), as one more process of the supervisor,
+started before the nodes and stopped after them, so that the driver's last ``m 0 0`` reaches
+it. Its pty is kept at a symlink in a folder of the run's own, and the driver gets
+``backend:=serial`` on it with the same gearbox and encoder: the whole chain ROS node, serial,
+the firmware's parser, PID and encoder interrupts, the simulated motor.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from fishtail_driver.avr_board import ELF_NAME, SIMULATOR_NAME, built_artifacts, default_build_dir
+from fishtail_driver.parameters import DC_MOTOR_ENCODER
+from fishtail_driver.sim_load import NO_LOAD
+
+#: The supervisor's label of the board's process (its output is prefixed with it).
+BOARD_LABEL = "board"
+#: The symlink's name in the run's folder.
+LINK_NAME = "ttyFIRMWARE"
+
+
+def missing_firmware() -> str | None:
+    """Why the firmware cannot run (not built: the command that builds it), or None."""
+    if built_artifacts() is None:
+        return f"no {ELF_NAME} and {SIMULATOR_NAME} in {default_build_dir()}: run make firmware"
+    return None
+
+
+def board_command(link: Path, load: str, config: Path, fish: Path | None) -> list[str]:
+    """``fishtail-avr-board`` at ``link``; with ``load`` its motors turn the tail of ``config``."""
+    command = [sys.executable, "-m", "fishtail_driver.avr_board", "--link", str(link),
+               "--counts-per-rev", str(DC_MOTOR_ENCODER["encoder_counts_per_revolution"]),
+               "--gear-ratio", str(DC_MOTOR_ENCODER["gear_ratio"])]  # fmt: skip
+    if load != NO_LOAD:
+        command += ["--load", load, "--config", str(config)]
+        command += ["--fish", str(fish)] if fish is not None else []
+    return command
+
+
+def driver_parameters(link: Path) -> list[str]:
+    """The driver's ``NAME:=VALUE`` items for the board at ``link`` (before --driver-param)."""
+    items = ["backend:=serial", f"serial_port:={link}"]
+    return items + [f"{name}:={value!r}" for name, value in DC_MOTOR_ENCODER.items()]
