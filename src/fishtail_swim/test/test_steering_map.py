@@ -142,7 +142,7 @@ def test_a_pilot_flies_on_the_map(built):
     settings = PilotSettings(steering.straight_distance_per_beat_m, max_carrier_speed_rad_s=20.0)
     pilot = Pilot(settings, steering.modulation)
     pilot.set_velocity(0.2, 0.3)
-    command = pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0)
+    command = pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     assert command.carrier.depth > 0.0
     assert command.carrier.phase_rad == steering.modulation.left_phase_rad
     assert steering.means("modulation") is steering.modulation
