@@ -30,6 +30,7 @@ from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
 from fishtail_driver.pivot_actuator import PivotLimits
 from fishtail_driver.protocol import Scale
 from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
+from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
 from fishtail_swim.dynamics.dc_motor import (
     DcMotor,
     DcMotorParameters,
@@ -38,6 +39,7 @@ from fishtail_swim.dynamics.dc_motor import (
     zero_load,
     zero_load_inertia,
 )
+from fishtail_swim.steering import PIVOT_STROKE_DEFAULT_M
 
 ParameterValues = Mapping[str, ParameterValue]
 #: ``pivot_actuator`` values.
@@ -50,8 +52,9 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("publish_rate_hz", 200.0, "encoder publish rate", "Hz", 1.0, 1000.0),
     ParameterSpec("cmd_timeout_sec", 0.5, "stop the motor when no command arrives for this long; "
                   "0 disables the watchdog (sim backend only)", "s", 0.0, 60.0),
-    ParameterSpec("max_speed_rad_s", 20.0, "commands above this carrier speed are clamped",
-                  "rad/s", 0.1, 1000.0, read_only=True),
+    ParameterSpec("max_speed_rad_s", DEFAULT_TOP_SPEED_RAD_S,
+                  "commands above this carrier speed are clamped", "rad/s", 0.1, 1000.0,
+                  read_only=True),
     ParameterSpec("joint_name", CARRIER_JOINT,
                   "name of the carrier joint in motor/joint_state (not empty)", non_empty=True),
     ParameterSpec("diagnostics_period_sec", 1.0, "period of /diagnostics", "s", 0.1, 60.0,
@@ -133,8 +136,9 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("pivot_actuator", "none", "the pivot actuator: none (no pivot topics) or sim (a "
                   "simulated lead screw: pivot/cmd_position in, pivot/joint_state out; backend "
                   "sim only)", choices=PIVOT_ACTUATORS, read_only=True),
-    ParameterSpec("pivot_stroke_m", 0.03, "pivot: half its travel; it moves within +- this of "
-                  "the design position", "m", 0.001, 1.0, read_only=True),
+    ParameterSpec("pivot_stroke_m", PIVOT_STROKE_DEFAULT_M,
+                  "pivot: half its travel; it moves within +- this of the design position", "m",
+                  0.001, 1.0, read_only=True),
     ParameterSpec("pivot_speed_m_s", 0.01, "pivot: the lead screw's speed (constant towards the "
                   "target, stopping at it)", "m/s", 0.0001, 1.0, read_only=True),
 )  # fmt: skip

@@ -32,7 +32,10 @@ from collections import deque
 from typing import NamedTuple, Protocol
 
 from fishtail_common.parameters import ParameterSpec
-from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from fishtail_kinematics.engine.carrier_profile import (
+    DEFAULT_TOP_SPEED_RAD_S,
+    CarrierSpeedProfile,
+)
 
 TWO_PI = 2.0 * math.pi
 
@@ -128,7 +131,7 @@ class PilotSettings:
     #: U / f of straight swimming: the distance covered per beat (m).
     speed_per_beat_m: float
     #: The driver's highest carrier speed (rad/s): the profile's peak stays within it.
-    max_carrier_speed_rad_s: float = 20.0
+    max_carrier_speed_rad_s: float = DEFAULT_TOP_SPEED_RAD_S
     #: Carrier speed per m/s of beat-mean speed error, as a fraction of the feed-forward's slope.
     speed_gain: float = 2.0
     #: Integral action of the speed loop (1/s): the fraction of the error added per second.

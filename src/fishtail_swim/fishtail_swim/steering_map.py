@@ -56,6 +56,7 @@ from fishtail_swim.dynamics.steady_turn import (
     strongest_phases,
 )
 from fishtail_swim.pilot import SteeringCommand
+from fishtail_swim.steering import PIVOT_STROKE_DEFAULT_M
 
 #: The map's carrier speed: one beat a second, so r̄ and r̄/f are the same numbers.
 MAP_CARRIER_SPEED_RAD_S = 2.0 * math.pi
@@ -67,7 +68,7 @@ PHASE_COUNT = 24
 #: 2e-3 rad a beat of a 61-depth table for both tails (10 evenly spaced: 2e-2).
 DEPTH_COUNT = 16
 #: The pivot actuator's reach each way from the design position of S [m], and the table's rows.
-PIVOT_STROKE_M = 0.03
+PIVOT_STROKE_M = PIVOT_STROKE_DEFAULT_M
 PIVOT_COUNT = 13
 #: The fraction of the way to a limit of ``Tail.pivot_shift_range`` a table may reach: at the
 #: limit the linkage cannot assemble over the whole stroke.

@@ -46,6 +46,9 @@ CarrierMotion = Callable[[npt.ArrayLike], tuple[FloatArray, FloatArray, FloatArr
 #: The deepest modulation accepted: at delta = 0.9 the slowest point runs at 0.23 Omega and the
 #: fastest at 4.4 Omega; deeper, the carrier all but stops once a revolution.
 MAX_DEPTH = 0.9
+#: The carrier's top speed by default [rad/s]: the driver's max_speed_rad_s, within which the pilot
+#: keeps a profile's peak.
+DEFAULT_TOP_SPEED_RAD_S = 20.0
 TWO_PI = 2.0 * math.pi
 
 
