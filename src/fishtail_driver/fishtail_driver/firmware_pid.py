@@ -211,18 +211,21 @@ class FirmwareSpeedLoop:
 
 
 class FrameTimer:
-    """When the PID frames fall: every ``frame_ms`` whole milliseconds after ``start_s``.
+    """When the PID frames fall: every ``frame_ms`` whole milliseconds, 1 ms after the grid.
 
-    The firmware runs a frame at the first loop pass with ``millis() > nextPID`` and then adds the
-    interval, so frames keep a fixed grid (a late pass does not shift the later frames).
+    The firmware starts with ``nextPID = PID_INTERVAL``, runs a frame at the first loop pass with
+    ``millis() > nextPID`` (strictly: one millisecond after it) and then adds the interval, so
+    frames keep a fixed grid (a late pass does not shift the later frames) at 34, 67, 100 ms ...
+    after power-on, as the firmware in simavr shows. (``millis()`` itself, counted by timer 0's
+    1.024 ms overflow, runs up to about a millisecond behind; that is not modelled.)
 
     >>> timer = FrameTimer(frame_ms=33, start_s=0.0)
     >>> [round(t, 3) for t in timer.due(0.1)]
-    [0.033, 0.066, 0.099]
+    [0.034, 0.067, 0.1]
     """
 
     def __init__(self, frame_ms: int, start_s: float) -> None:
-        """The first frame is one interval after ``start_s``."""
+        """The first frame is one interval and a millisecond after ``start_s``."""
         if isinstance(frame_ms, bool) or not isinstance(frame_ms, int) or frame_ms < 1:
             raise ValueError(f"frame_ms must be an integer >= 1, got {frame_ms!r}")
         self.frame_ms = frame_ms
@@ -237,7 +240,7 @@ class FrameTimer:
     @property
     def next_s(self) -> float:
         """When the next frame falls."""
-        return self._start_s + self._next_index * self.frame_s
+        return self._start_s + (self._next_index * self.frame_ms + 1) / 1000.0
 
     def due(self, now_s: float) -> Iterator[float]:
         """The times of the frames up to ``now_s`` not yet taken, in order (each taken once)."""

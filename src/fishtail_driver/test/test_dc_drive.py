@@ -94,9 +94,9 @@ def test_the_pwm_changes_only_at_frames():
     subject = drive()
     subject.command(4.0)
     assert subject.loop.pwm == (0,)  # the target is taken at the next frame
-    subject.advance(0.0329)
+    subject.advance(0.0339)
     assert subject.loop.pwm == (0,)
-    subject.advance(0.0002)  # past 33 ms: 20 * 40 / 50 = 16
+    subject.advance(0.0002)  # past 34 ms (a millisecond after the 33 ms grid): 20 * 40 / 50 = 16
     assert subject.loop.pwm == (16,) and subject.motor.duty == 16 / 255
 
 

@@ -58,7 +58,9 @@ def test_the_pwm_of_a_scripted_run_is_the_speed_loop_driven_by_the_same_counts()
     assert board.auto_stop_times == [pytest.approx(3.501)]  # 1.5 s + 2001 ms, no m/o between
 
     frames = list(board.frames)
-    assert [round(when / 0.033, 6) for when, _, _ in frames] == list(range(1, len(frames) + 1))
+    # On the 33 ms grid, a millisecond after it (the firmware's millis() > nextPID).
+    grid = [round((when - 0.001) / 0.033, 6) for when, _, _ in frames]
+    assert grid == list(range(1, len(frames) + 1))
     replay = FirmwareSpeedLoop((0, 0))
     events = sorted(
         [(when, 0, ("frame", frame_counts, pwm)) for when, frame_counts, pwm in frames]

@@ -189,9 +189,9 @@ def test_frames_fall_on_the_integer_millisecond_grid():
     frame_ms = Scale(64, 30.0, pid_rate_hz=30).frame_ms
     assert frame_ms == 33  # 1000 / 30 in integer maths
     timer = FrameTimer(frame_ms, start_s=10.0)
-    assert list(timer.due(10.0329)) == []
-    assert list(timer.due(10.1)) == pytest.approx([10.033, 10.066, 10.099])
+    assert list(timer.due(10.0339)) == []  # millis() > nextPID: one millisecond after the grid
+    assert list(timer.due(10.1)) == pytest.approx([10.034, 10.067, 10.100])
     assert list(timer.due(10.1)) == []  # each frame once
-    assert timer.next_s == pytest.approx(10.132)
+    assert timer.next_s == pytest.approx(10.133)
     with pytest.raises(ValueError, match="frame_ms"):
         FrameTimer(0, 0.0)
