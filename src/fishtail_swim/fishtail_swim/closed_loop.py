@@ -1,15 +1,16 @@
 """The pilot flying the simulated fish without ROS: the suite's closed loop as one function.
 
-Carrier samples come at ``sample_rate_hz`` as the driver's would; the carrier follows the pilot's
-profile exactly (the closed-form motion of :class:`CarrierSpeedProfile`, restarted at the current
-angle whenever the command changes: an ideal motor, so the loop's figures are the fish's and the
-pilot's, not the motor's); :class:`SwimFollower` integrates the fish between samples as the
-simulator node does, and each sample's odometry goes back to the pilot. The pivot actuator, when
-the steering has one, moves at ``pivot_speed_m_s`` towards its command, and the follower's tail
-follows it (:meth:`SwimFollower.set_tail`).
+Carrier samples come at ``sample_rate_hz`` as the driver's would. The carrier follows the pilot's
+profile in closed form (:class:`CarrierSpeedProfile`'s motion, restarted at the current angle
+whenever the command changes); ``motor_lag_s`` delays the modulation as a motor that reaches each
+speed that much late does (by a carrier angle of Omega tau; 0 is an ideal motor).
+:class:`SwimFollower` integrates the fish between samples as the simulator node does, and each
+sample's odometry goes back to the pilot. The pivot actuator, when the steering has one, moves at
+``pivot_speed_m_s`` towards its command, and the follower's tail follows it
+(:meth:`SwimFollower.set_tail`).
 
-The tests use it for the pilot's settling times, headings and goals; ``fishtail-swim pilot``
-prints and draws such a run.
+The tests fly it for the pilot's settling times, turns and goals, and the pilot's benchmark
+against real time.
 """
 
 from __future__ import annotations
@@ -49,7 +50,8 @@ class LoopRun(NamedTuple):
 class _Carrier:
     """The carrier under a profile, restarted at the current angle on every new profile."""
 
-    def __init__(self) -> None:
+    def __init__(self, lag_s: float) -> None:
+        self.lag_s = lag_s
         self.profile = CarrierSpeedProfile(0.0)
         self.angle_rad = 0.0
         self._motion: CarrierMotion = self.profile.motion()
@@ -60,7 +62,9 @@ class _Carrier:
         self.angle_rad = float(angle)
         if profile != self.profile:
             self.profile = profile
-            self._motion = profile.motion(time_s, self.angle_rad)
+            late = profile.phase_rad + profile.mean_speed_rad_s * self.lag_s
+            executed = CarrierSpeedProfile(profile.mean_speed_rad_s, profile.depth, late)
+            self._motion = executed.motion(time_s, self.angle_rad)
         return self.angle_rad
 
 
@@ -73,10 +77,11 @@ def fly(
     sample_rate_hz: float = 200.0,
     max_step_s: float = 0.01,
     pivot_speed_m_s: float = 0.01,
+    motor_lag_s: float = 0.0,
 ) -> LoopRun:
     """Run the loop for ``duration_s`` from rest at the origin; ``script`` commands the pilot."""
     follower = SwimFollower(tail, fish, max_step_s)
-    carrier = _Carrier()
+    carrier = _Carrier(motor_lag_s)
     count = int(math.floor(duration_s * sample_rate_hz)) + 1
     rows = np.full((count, len(LoopRun._fields)), np.nan)
     pivot_position = 0.0

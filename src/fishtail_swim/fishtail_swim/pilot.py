@@ -145,6 +145,10 @@ class PilotSettings:
     slow_down_distance_m: float = 1.0
     #: A goal this close is reached: the carrier stops (m).
     goal_tolerance_m: float = 0.2
+    #: How far the motor's speed lags its command (s): the modulation's phase is asked that much
+    #: of a revolution early, so that the carrier is fastest where the steering table wants it.
+    #: The DC gear motor under the firmware's 30 Hz loop lags 80-100 ms (docs/serial.md).
+    motor_lag_s: float = 0.1
     #: The beat-mean window before the carrier turns (s); after that, one beat.
     idle_window_s: float = 1.0
 
@@ -170,6 +174,9 @@ CONTROL_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("max_carrier_speed_rad_s", _DEFAULTS.max_carrier_speed_rad_s,
                   "the driver's top carrier speed: the profile's peak stays within it", "rad/s",
                   0.1, 1000.0),
+    ParameterSpec("motor_lag_s", _DEFAULTS.motor_lag_s,
+                  "how far the motor's speed lags its command: the modulation is asked that much "
+                  "early (bench/bench_profile_following.py measures it)", "s", 0.0, 1.0),
 )  # fmt: skip
 #: A goal this close is reached (the console's route uses it too).
 GOAL_TOLERANCE = next(spec for spec in CONTROL_PARAMETERS if spec.name == "goal_tolerance_m")
@@ -428,7 +435,9 @@ class Pilot:
                     f"{self.min_turning_radius_m(wanted_yaw):.3g} m at any speed)",
                 )  # fmt: skip
         self.limit_reports = reports
-        profile = CarrierSpeedProfile(mean_speed, depth, steering.phase_rad)
+        # The motor reaches each speed a lag late, a carrier angle of Omega tau further on.
+        phase = steering.phase_rad - mean_speed * settings.motor_lag_s if depth > 0.0 else 0.0
+        profile = CarrierSpeedProfile(mean_speed, depth, phase % TWO_PI)
         return PilotCommand(profile, steering.pivot_shift_m)
 
     def _advance_reference(self, dt: float) -> None:

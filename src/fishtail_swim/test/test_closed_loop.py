@@ -34,8 +34,12 @@ def setup(mechanism: str, steering: str = "modulation"):
 
 def run(mechanism: str, duration_s: float, script, steering: str = "modulation") -> LoopRun:
     tail, fish, means, speed_per_beat_m = setup(mechanism, steering)
-    pilot = Pilot(PilotSettings(speed_per_beat_m), means)
-    return fly(pilot, tail, fish, duration_s, script, SAMPLE_RATE_HZ)
+    settings = PilotSettings(speed_per_beat_m)
+    pilot = Pilot(settings, means)
+    # The motor lags as much as the pilot assumes (its default, the DC gear motor's).
+    return fly(
+        pilot, tail, fish, duration_s, script, SAMPLE_RATE_HZ, motor_lag_s=settings.motor_lag_s
+    )
 
 
 def settling_beats(loop: LoopRun, start_s: float, target_m_s: float, speed_per_beat_m: float):

@@ -25,6 +25,7 @@ def modulation(yaw_per_beat: float = 0.01) -> ModulationChannel:
 
 
 def pilot(steering=None, **settings) -> Pilot:
+    settings.setdefault("motor_lag_s", 0.0)
     return Pilot(
         PilotSettings(SPEED_PER_BEAT_M, TOP_CARRIER_RAD_S, **settings), steering or modulation()
     )
@@ -146,3 +147,15 @@ def test_stop_stops_the_carrier_and_holds_the_pivot():
     assert stopped.carrier.mean_speed_rad_s == 0.0
     assert stopped.pivot_shift_m == moving.pivot_shift_m
     assert fish_pilot.mode is Mode.IDLE
+
+
+def test_the_modulation_is_asked_a_motor_lag_early():
+    lagging, ideal = pilot(motor_lag_s=0.1), pilot()
+    for fish_pilot in (lagging, ideal):
+        fish_pilot.set_velocity(0.2, 0.001)
+    early = lagging.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0).carrier
+    on_time = ideal.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0).carrier
+    # Hand-derived: a lag tau is a carrier angle of Omega tau.
+    expected = (on_time.phase_rad - on_time.mean_speed_rad_s * 0.1) % (2 * math.pi)
+    assert early.phase_rad == pytest.approx(expected)
+    assert (early.mean_speed_rad_s, early.depth) == (on_time.mean_speed_rad_s, on_time.depth)
