@@ -103,3 +103,37 @@ class PidDrivenDcMotor:
             "target_ticks_per_frame": str(point.target_ticks_per_frame),
             "pid_running": str(self.loop.moving).lower(),
         }
+
+
+#: The step the start-up check commands, as a share of the top speed, and how long it watches.
+_CHECK_SHARE = 0.25
+_CHECK_SECONDS = 2.0
+
+
+def unstable_speed_loop(
+    motor: DcMotor, scale: Scale, gains: PidGains, top_speed_rad_s: float
+) -> str | None:
+    """Why the firmware's loop cannot hold this unloaded motor steady, or None if it can.
+
+    The firmware's gains are PWM counts per encoder tick, so the same gains that hold a motor
+    with a 64-count encoder make one with 2048 counts ring from full forward to full reverse.
+    A real board would do the same; the simulated one is checked at start-up, so that a wrong
+    encoder or gain does not give numbers that look like a motor: a step to a quarter of the top
+    speed, watched for two seconds, must never turn the carrier backwards.
+    """
+    drive = PidDrivenDcMotor(motor, scale, gains)
+    drive.command(_CHECK_SHARE * top_speed_rad_s)
+    slowest = math.inf
+    for _ in range(int(_CHECK_SECONDS * 1000)):
+        drive.advance(1e-3)
+        slowest = min(slowest, drive.speed_rad_s)
+    if slowest >= 0.0:
+        return None
+    return (
+        f"the simulated DC motor's speed loop is unstable: stepped to "
+        f"{_CHECK_SHARE * top_speed_rad_s:g} rad/s it turns the carrier backwards (at "
+        f"{slowest:.3g} rad/s) with encoder_counts_per_revolution {scale.counts_per_revolution} "
+        f"and gear_ratio {scale.gear_ratio:g} under pid_kp {gains.kp}, pid_kd {gains.kd}; the "
+        "default gear motor is gear_ratio:=30.0 encoder_counts_per_revolution:=64 (what "
+        "fishtail-run --motor dc and the launch file's motor_model:=dc set), or lower the gains"
+    )

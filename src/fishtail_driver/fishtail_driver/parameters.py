@@ -24,7 +24,7 @@ from collections.abc import Callable, Mapping
 from fishtail_common.interface import CARRIER_JOINT
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_driver.backends import MotorBackend, SimBackend, SimMotor
-from fishtail_driver.dc_drive import PidDrivenDcMotor
+from fishtail_driver.dc_drive import PidDrivenDcMotor, unstable_speed_loop
 from fishtail_driver.firmware_pid import PidGains
 from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
 from fishtail_driver.pivot_actuator import PivotLimits
@@ -188,6 +188,11 @@ def _dc_motor(values: ParameterValues, load: LoadTorque, inertia: LoadInertia) -
         float(values["gear_ratio"]),
         int(values["serial_pid_rate_hz"]),
     )
+    reason = unstable_speed_loop(
+        DcMotor(parameters), scale, gains, float(values["max_speed_rad_s"])
+    )
+    if reason is not None:
+        raise ValueError(reason)
     return PidDrivenDcMotor(DcMotor(parameters, load, inertia), scale, gains)
 
 

@@ -16,6 +16,7 @@ import pytest
 from fishtail_driver import dc_drive
 from fishtail_driver.backends import SimBackend
 from fishtail_driver.dc_drive import PidDrivenDcMotor
+from fishtail_driver.firmware_pid import PidGains
 from fishtail_driver.parameters import DRIVER_PARAMETERS, make_backend
 from fishtail_driver.protocol import Scale
 from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters
@@ -166,3 +167,21 @@ def test_the_first_order_model_stays_the_default():
 def test_the_dc_backend_refuses_bad_values_with_reasons(changes, reason):
     with pytest.raises(ValueError, match=reason):
         make_backend(defaults(**DC_VALUES, **changes))
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [{"encoder_counts_per_revolution": 2048, "gear_ratio": 1.0},  # the first-order's defaults
+     {"encoder_counts_per_revolution": 2048},  # a fine encoder on the default gains
+     {"pid_kp": 200, "pid_kd": 120}],
+)  # fmt: skip
+def test_a_speed_loop_that_rings_is_refused_with_its_reason(changes):
+    # Measured: with these the carrier swings between full forward and full reverse.
+    with pytest.raises(ValueError, match="speed loop is unstable: .* turns the carrier backwards"):
+        make_backend(defaults(**{**DC_VALUES, **changes}))
+
+
+def test_the_default_gear_motor_passes_the_start_up_check():
+    drive = make_backend(defaults(**DC_VALUES)).motor
+    fresh = DcMotor(drive.motor.parameters)
+    assert dc_drive.unstable_speed_loop(fresh, drive.scale, PidGains(), 20.0) is None
