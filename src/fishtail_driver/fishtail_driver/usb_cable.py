@@ -103,7 +103,10 @@ class UsbCable:
                 if self._master is not None and self._master in readable:
                     data = self._read(self._master)
                     if data:
-                        os.write(self._uart, data)
+                        # A UART that cannot take them (the simulator gone or ending) loses
+                        # them, as a board's would; the relay goes on.
+                        with contextlib.suppress(OSError):
+                            os.write(self._uart, data)
         finally:
             self._unplug()
             os.close(self._uart)

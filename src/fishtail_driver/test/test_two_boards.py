@@ -19,6 +19,8 @@ from __future__ import annotations
 import math
 import time
 
+import pytest
+
 from fishtail_driver.protocol import INT32_MAX
 
 POLOLU = {"counts_per_revolution": 64, "gear_ratio": 30.0}
@@ -142,7 +144,10 @@ def test_a_reset_mid_run_is_detected_and_the_angle_goes_on(
     backend.set_speed(SPEED_RAD_S)
     readings = collect_readings(backend, board, 1.0, wait_until)
     board.reset()
-    wait_until(lambda: counter(backend, "board_resets") >= 1, PATIENCE_S, "the reset detected")
+    try:
+        wait_until(lambda: counter(backend, "board_resets") >= 1, PATIENCE_S, "the reset")
+    except pytest.fail.Exception:
+        pytest.fail(f"{board.kind}: no reset detected; the backend says {backend.status()!r}")
     held = backend.read() or readings[-1]
     readings += collect_readings(backend, board, 1.0, wait_until)
     assert readings[-1].angle_rad > held.angle_rad + 1.0, f"{board.kind}: no motion after reset"
