@@ -151,11 +151,11 @@ def test_a_driver_without_a_load_loads_no_swimming_dynamics():
 
         import fishtail_driver.fake_board
         import fishtail_driver.node
-        from fishtail_driver.parameters import DRIVER_PARAMETERS, make_backend
+        from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_backend
 
         values = {spec.name: spec.default for spec in DRIVER_PARAMETERS}
-        for model in ("first_order", "dc"):
-            make_backend({**values, "motor_model": model}).read()
+        make_backend({**values, "motor_model": "first_order"}).read()
+        make_backend({**values, "motor_model": "dc", **DC_MOTOR_ENCODER}).read()
         heavy = [name for name in sys.modules
                  if name == "numba" or name.startswith("fishtail_swim.dynamics.motor_load")]
         print("loaded:", heavy)
