@@ -195,10 +195,9 @@ class PilotNode(SuiteNodeBase):
 
     def _send(self, command: PilotCommand, now_ns: int, force: bool = False) -> None:
         due = self.last_sent_ns is None or now_ns - self.last_sent_ns >= self.control_period_ns
-        stopping = command.carrier.mean_speed_rad_s == 0.0
-        if command == self.sent and not due:
-            return
-        if not (force or due or (stopping and command != self.sent)):
+        # A new stop goes out at once; anything else at the control rate.
+        stopping = command.carrier.mean_speed_rad_s == 0.0 and command != self.sent
+        if not (force or due or stopping):
             return
         profile = command.carrier
         message = self.profile_message
