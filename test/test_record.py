@@ -149,8 +149,12 @@ def test_record_the_suite_then_analyse(start_node, ros, config_dir, recorders, t
         lambda: "recording /tail/symmetry" in killed.output(), 30.0, "the first recorder"
     )
     clean = recorders("clean", "--segment-sec", str(SEGMENT_SEC))
+    # The window starts once its first tail/state is in (a recorder of the suite's many topics
+    # may take a while after tail/symmetry to match the rest).
     ros.spin_until(
-        lambda: "recording /tail/symmetry" in clean.output(), 30.0, "the second recorder"
+        lambda: all(f"recording /tail/{name}" in clean.output() for name in ("symmetry", "state")),
+        30.0,
+        "the second recorder",
     )
     ros.spin_for(RECORD_SECONDS)
     kill_ns = time.time_ns()
