@@ -14,7 +14,9 @@ and forth once a carrier revolution), so the pilot steers by their means over th
   a proportional term on the error between a heading reference (the command integrated over
   time, or the goal's bearing) and the beat-mean heading. The steering means (:class:`Steering`)
   turns the demand (r / f depends on the geometry only) into its actuator's input.
-* **Goal**: head for it, slow down within ``slow_down_distance_m``, stop the carrier within
+* **Goal**: head for it, steering on the beat-mean heading brought up to now with the beat's
+  mean yaw rate (its bearing swings fast near it), pass it straight while it lies inside the
+  tightest turning circle, slow down within ``slow_down_distance_m``, stop the carrier within
   ``goal_tolerance_m``.
 * **Limits**: a speed or a yaw rate beyond what the fish can do is flown at the limit and reported
   (:attr:`Pilot.limit_reports`) with the achievable value; never silently clipped.
@@ -306,10 +308,6 @@ class Pilot:
         self._heading.add(time_s, unwrapped)
         window = self._window_s()
         self.mean_speed_m_s = self._speed.mean(window)
-        # The mean over the last beat is the heading of half a beat ago: it is brought up to now
-        # with the rate at which that mean itself turned over the last beat (a difference of
-        # beat means, free of the wiggle within the beat), so that the loop does not steer on a
-        # heading half a beat old.
         self.mean_heading_rad = self._heading.mean(window)
         # That mean is the heading of half a beat ago. Swimming to a goal, whose bearing swings
         # fast as the fish nears it, the pilot steers on it brought up to now with the beat's mean
