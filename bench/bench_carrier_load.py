@@ -13,12 +13,12 @@ import time
 
 import numpy as np
 
-from fishtail_kinematics.engine.carrier_load import CarrierLoadModel
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
-from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics.fish import FishParameters
-from fishtail_swim.dynamics.tail_load import carrier_load_in_water
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.linkage_load.carrier_load import CarrierLoadModel
+from fishtail_plant.linkage_load.link_inertia import LinkInertia
+from fishtail_plant.linkage_load.water import carrier_load_in_water
 from measure import pin_to_one_core, verdict
 
 ANGLES = 1_000_000

@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 from bench_serial import percentile, round_trips, start_board
-from fishtail_driver.avr_board import built_artifacts
+from fishtail_boards.avr_board import built_artifacts
 from fishtail_driver.protocol import encode_motor_speeds, encode_read_encoders
 from fishtail_driver.serial_backend import SerialBackend
 from fishtail_driver.serial_config import SerialConfig
@@ -54,7 +54,7 @@ def start_firmware(link: Path, stderr_path: Path) -> subprocess.Popen:
     """``fishtail-avr-board`` at ``link``, once its pty is there."""
     with open(stderr_path, "wb") as stderr:
         board = subprocess.Popen(
-            [sys.executable, "-m", "fishtail_driver.avr_board", "--link", str(link),
+            [sys.executable, "-m", "fishtail_boards.avr_board", "--link", str(link),
              "--build-dir", str(ROOT / "build" / "firmware")],
             stdout=subprocess.PIPE, stderr=stderr, text=True, start_new_session=True,
         )  # fmt: skip

@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 import time
 
-from fishtail_swim.closed_loop import fly
-from fishtail_swim.pilot import Pilot, PilotSettings
-from fishtail_swim.steering_map import build_steering_map
-from fishtail_swim.tail_and_fish import fish_from_values, tail_from_values
+from fishtail_pilot.pilot import Pilot, PilotSettings
+from fishtail_pilot.steering_map import build_steering_map
+from fishtail_plant.values import fish_from_values, tail_from_values
+from fishtail_testkit.closed_loop import fly
 from measure import best_of, pin_to_one_core
 
 MESSAGES = 20000

@@ -5,7 +5,7 @@ The driver commands the speed of a once-per-revolution profile at every carrier 
 later than commanded. For each source, beat frequency f (mean speed Omega = 2 pi f) and commanded
 depth, this runs the profile (fastest at phi_0 = 1 rad) for SETTLE_REVOLUTIONS, then measures
 the whole revolutions after them (at least MEASURE_REVOLUTIONS) with
-fishtail_driver.modulation_fit: per revolution a fit of speed ~ a0 + a1 cos phi + b1 sin phi over
+fishtail_testkit.modulation_fit: per revolution a fit of speed ~ a0 + a1 cos phi + b1 sin phi over
 the angle, the achieved depth and phase lag averaged over the revolutions, their spreads (largest
 minus smallest), the lag as a time at the mean speed, the achieved mean speed over the commanded
 one, and the revolutions fitted and left out (a gap in the samples). The sources:
@@ -45,19 +45,19 @@ from typing import Any
 import numpy as np
 
 from fishtail_common.parameters import ParameterValue
-from fishtail_driver.modulation_fit import (
+from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_sim_motor
+from fishtail_driver.profile_command import CarrierCommand
+from fishtail_driver.serial_backend import SerialBackend
+from fishtail_driver.serial_config import SerialConfig
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from fishtail_plant.values import tail_load_from_files
+from fishtail_testkit.modulation_fit import (
     FollowingResult,
     Recording,
     follow_simulated,
     measure_following,
     speeds_from_angles,
 )
-from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_sim_motor
-from fishtail_driver.profile_command import CarrierCommand
-from fishtail_driver.serial_backend import SerialBackend
-from fishtail_driver.serial_config import SerialConfig
-from fishtail_driver.sim_load import tail_load_from_files
-from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from measure import OUT
 
 BEATS_HZ = (0.5, 1.0, 2.0, 3.0, 4.0)
@@ -105,7 +105,7 @@ class SerialSource:
     def __init__(self, directory: Path) -> None:
         """Start the board (``--motor dc --load water_swimming``) and connect to it."""
         link = directory / "board"
-        argv = [sys.executable, "-m", "fishtail_driver.fake_board", "--link", str(link),
+        argv = [sys.executable, "-m", "fishtail_boards.fake_board", "--link", str(link),
                 "--motor", "dc", "--load", "water_swimming", "--pace-baud",
                 "--counts-per-rev", str(DC_MOTOR_ENCODER["encoder_counts_per_revolution"]),
                 "--gear-ratio", str(DC_MOTOR_ENCODER["gear_ratio"]),

@@ -40,7 +40,7 @@ BITS_PER_BYTE = 10  # start bit, 8 data bits, stop bit
 
 def start_board(link: Path, baud: int, paced: bool) -> subprocess.Popen:
     """A fishtail-fake-board process serving a pty at ``link``."""
-    argv = [sys.executable, "-m", "fishtail_driver.fake_board", "--link", str(link),
+    argv = [sys.executable, "-m", "fishtail_boards.fake_board", "--link", str(link),
             "--baud", str(baud)]  # fmt: skip
     if paced:
         argv.append("--pace-baud")

@@ -15,11 +15,11 @@ import numpy as np
 
 from fishtail_kinematics.engine.geometry import Geometry, OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics import fused
-from fishtail_swim.dynamics.fish import FishParameters
-from fishtail_swim.dynamics.integrator import simulate
-from fishtail_swim.dynamics.model import SwimModel
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.fish import fused
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.fish.integrator import simulate
+from fishtail_plant.fish.model import SwimModel
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.steady_table import steady_rows
 from measure import best_of, pin_to_one_core, verdict

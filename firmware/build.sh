@@ -71,7 +71,7 @@ make -s -C "$OUT/sketch" >"$OUT/sketch-build.log" 2>&1 || {
 }
 cp "$OUT/sketch/build-nano-atmega328/ROSArduinoBridge.elf" "$OUT/ROSArduinoBridge.elf"
 # The firmware's global variables (name, data-space address, size), for the simulator's --watch
-# and --poke (fishtail_driver.avr_board reads them).
+# and --poke (fishtail_boards.avr_board reads them).
 avr-nm -S "$OUT/ROSArduinoBridge.elf" | awk '$3 ~ /^[bBdD]$/ {print $4, $1, $2}' >"$OUT/symbols.txt"
 avr-size "$OUT/ROSArduinoBridge.elf" | tail -n 1 | awk '{print "make firmware: flash " $1+$2 " B, RAM " $2+$3 " B"}'
 

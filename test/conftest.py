@@ -44,11 +44,6 @@ ros_domain = pytest_fixtures.ros_domain
 ros = pytest_fixtures.ros
 
 
-def pytest_configure(config):
-    """Silence a third-party deprecation warning that the ROS message imports trigger."""
-    config.addinivalue_line("filterwarnings", "ignore:module 'sre_:DeprecationWarning:lark")
-
-
 # --------------------------------------------------------------------------------------------
 # Node processes
 

@@ -20,10 +20,10 @@ import pytest
 import yaml
 from sensor_msgs.msg import JointState
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_msgs.msg import TailState
 
 ROOT = Path(__file__).resolve().parents[1]

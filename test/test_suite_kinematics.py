@@ -14,9 +14,9 @@ import pytest
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_msgs.msg import TailState
 
 #: Same code, same float inputs: the results should be bit-identical; 1e-12 leaves room for a

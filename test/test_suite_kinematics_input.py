@@ -16,8 +16,8 @@ from rcl_interfaces.srv import SetParameters
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.parameters import geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_msgs.msg import TailState
 
 SPEED_RAD_S = 4.0

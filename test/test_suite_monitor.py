@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
 from fishtail_kinematics.engine.symmetry import beats_of
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_msgs.msg import SymmetryReport
 
 SPEED_RAD_S = 12.0

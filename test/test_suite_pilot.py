@@ -17,7 +17,7 @@ from fishtail_common.interface import CMD_VEL, FISH_ODOM, MOTOR_CMD_PROFILE, Lev
 from fishtail_common.ros import qos_profile
 from fishtail_msgs.msg import CarrierSpeedProfile
 
-PILOT_MODULE = "fishtail_swim.nodes.pilot_node"
+PILOT_MODULE = "fishtail_pilot.node"
 #: The pilot measures its steering map at start-up (under a second, plus numba's first compile).
 START_TIMEOUT_S = 60.0
 TIMEOUT_S = 20.0

@@ -27,9 +27,9 @@ from fishtail_common.interface import (
 )
 from fishtail_common.ros import qos_profile
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
-from fishtail_swim.fish_config import read_fish_values
+from fishtail_plant.values import read_fish_values
 
-PILOT_MODULE = "fishtail_swim.nodes.pilot_node"
+PILOT_MODULE = "fishtail_pilot.node"
 SIM_MODULE = "fishtail_swim.nodes.sim_node"
 GOAL = (3.0, 0.5)
 #: The pilot reaches a goal 3 m away in about 10-15 s of swimming in the pure closed loop; the

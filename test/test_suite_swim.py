@@ -24,15 +24,15 @@ from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
 from fishtail_common.interface import FISH_MARKERS, FISH_ODOM, FISH_SWIMMING, Level
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_msgs.msg import SwimFigures
-from fishtail_swim.dynamics.figures import steady_surge_speed
-from fishtail_swim.dynamics.fish import FISH_PARAMETERS_BY_NAME, FishParameters
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
-from fishtail_swim.fish_config import read_fish_values
-from fishtail_swim.follower import SwimFollower
+from fishtail_plant.fish.figures import steady_surge_speed
+from fishtail_plant.fish.fish import FISH_PARAMETERS_BY_NAME, FishParameters
+from fishtail_plant.fish.follower import SwimFollower
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.values import read_fish_values
 
 SIM_MODULE = "fishtail_swim.nodes.sim_node"
 #: Fast, to get beats quickly (the driver's limit is 20 rad/s).

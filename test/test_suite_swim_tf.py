@@ -27,7 +27,7 @@ from fishtail_common.interface import (
     TF_STATIC,
     WORLD_FRAME,
 )
-from fishtail_swim.fish_config import read_fish_values
+from fishtail_plant.values import read_fish_values
 from fishtail_swim.frames import TAIL_IN_BODY_ROTATION, FrameTransform
 
 SIM_MODULE = "fishtail_swim.nodes.sim_node"

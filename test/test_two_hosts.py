@@ -34,9 +34,9 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag2 import Reader
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_msgs.msg import SymmetryReport, TailState
 
 ROOT = Path(__file__).resolve().parents[1]

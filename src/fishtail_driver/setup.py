@@ -22,8 +22,6 @@ setup(
     entry_points={
         "console_scripts": [
             "driver = fishtail_driver.node:main",
-            "fishtail-fake-board = fishtail_driver.fake_board:main",
-            "fishtail-avr-board = fishtail_driver.avr_board:main",
         ],
     },
 )

@@ -22,7 +22,7 @@ setup(
     entry_points={
         "console_scripts": [
             "sim = fishtail_swim.nodes.sim_node:main",
-            "pilot = fishtail_swim.nodes.pilot_node:main",
+            "pilot = fishtail_pilot.node:main",
             "fishtail-swim = fishtail_swim.offline.cli:main",
         ],
     },

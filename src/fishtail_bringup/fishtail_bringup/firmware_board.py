@@ -1,6 +1,6 @@
 """``fishtail-run --firmware``: the suite's driver on the real motor-board firmware in simavr.
 
-The board is ``fishtail-avr-board`` (:mod:`fishtail_driver.avr_board`: ROSArduinoBridge built for
+The board is ``fishtail-avr-board`` (:mod:`fishtail_boards.avr_board`: ROSArduinoBridge built for
 an Arduino Nano by ``make firmware``, run in simavr, its motor the project's DC gear motor with
 the Pololu 37D's 30:1 gearbox and 64-count encoder), as one more process of the supervisor,
 started before the nodes and stopped after them, so that the driver's last ``m 0 0`` reaches
@@ -14,9 +14,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from fishtail_driver.avr_board import ELF_NAME, SIMULATOR_NAME, built_artifacts, default_build_dir
+from fishtail_boards.avr_board import ELF_NAME, SIMULATOR_NAME, built_artifacts, default_build_dir
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
-from fishtail_driver.sim_load import NO_LOAD
+from fishtail_plant.linkage_load.surroundings import NO_LOAD
 
 #: The supervisor's label of the board's process (its output is prefixed with it).
 BOARD_LABEL = "board"
@@ -33,7 +33,7 @@ def missing_firmware() -> str | None:
 
 def board_command(link: Path, load: str, config: Path, fish: Path | None) -> list[str]:
     """``fishtail-avr-board`` at ``link``; with ``load`` its motors turn the tail of ``config``."""
-    command = [sys.executable, "-m", "fishtail_driver.avr_board", "--link", str(link),
+    command = [sys.executable, "-m", "fishtail_boards.avr_board", "--link", str(link),
                "--counts-per-rev", str(DC_MOTOR_ENCODER["encoder_counts_per_revolution"]),
                "--gear-ratio", str(DC_MOTOR_ENCODER["gear_ratio"])]  # fmt: skip
     if load != NO_LOAD:

@@ -48,7 +48,6 @@ from fishtail_bringup.console import (
 )
 from fishtail_bringup.console_node import Console
 from fishtail_bringup.supervisor import Supervisor
-from fishtail_common.config_files import default_parameter_file
 from fishtail_common.interface import (
     PILOT_NODE,
     SUITE_NODES,
@@ -56,10 +55,11 @@ from fishtail_common.interface import (
     VIEW_NODE,
     SuiteNode,
 )
+from fishtail_common.parameter_files import default_parameter_file
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
-from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
-from fishtail_swim.pilot import GOAL_TOLERANCE
-from fishtail_swim.steering import PIVOT_STEERING, STEERING
+from fishtail_pilot.pilot import GOAL_TOLERANCE
+from fishtail_pilot.steering import PIVOT_STEERING, STEERING
+from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
 
 #: The driver's simulated motors (its motor_model parameter).
 MOTOR_MODELS = SPECS["motor_model"].choices
@@ -173,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--load",
-        choices=MOTOR_LOADS,
+        choices=SURROUNDINGS,
         default=NO_LOAD,
         help="with --motor dc: what the motor turns (the driver's motor_load): the tail of the "
         "parameter file in air, in water with the fish held at rest or towed at the speed it swims "

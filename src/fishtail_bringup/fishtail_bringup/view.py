@@ -231,7 +231,7 @@ def replay_bag(arguments: argparse.Namespace, view: RerunView, stop: threading.E
     """Replay the bag into ``view`` at its pace once a viewer looks; serve until stopped."""
     from fishtail_bringup.view_replay import BagReplay, ReplayError, fish_from_parameter_file
     from fishtail_common.bag_types import suite_typestore
-    from fishtail_common.config_files import default_parameter_file
+    from fishtail_common.parameter_files import default_parameter_file
 
     started = time.monotonic()
 

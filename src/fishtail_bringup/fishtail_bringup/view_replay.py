@@ -48,12 +48,12 @@ from fishtail_common.interface import (
     TAIL_STATE,
     TAIL_SYMMETRY,
 )
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.markers import build_markers
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
-from fishtail_swim.dynamics.outline import body_outline, body_to_world, tail_to_body
-from fishtail_swim.fish_config import read_fish_values
+from fishtail_plant.fish.outline import body_outline, body_to_world, tail_to_body
+from fishtail_plant.values import read_fish_values
 
 #: The kinematics node's default marker rate and trail (markers_rate_hz, markers_trail_length).
 TAIL_FRAME_RATE_HZ = 30.0

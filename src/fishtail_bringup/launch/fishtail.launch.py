@@ -18,7 +18,6 @@ Machines without ros2 launch use `fishtail-run`, which also commands the speed a
 console.
 """
 
-from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
 from launch.substitutions import (
@@ -35,8 +34,9 @@ from launch_ros.substitutions import FindPackageShare
 
 from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, VIEW_NODE
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
-from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
-from fishtail_swim.steering import PIVOT_STEERING, STEERING
+from fishtail_pilot.steering import PIVOT_STEERING, STEERING
+from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
+from launch import LaunchDescription
 
 
 def dc_motor_encoder(motor_model):
@@ -194,7 +194,7 @@ def generate_launch_description():
                 "motor_load",
                 default_value=NO_LOAD,
                 description="with motor_model:=dc, what the motor turns: "
-                + ", ".join(MOTOR_LOADS)
+                + ", ".join(SURROUNDINGS)
                 + " (the tail of params_file, the fish of fish_params_file)",
             ),
             DeclareLaunchArgument(

@@ -22,7 +22,6 @@ launch_ros_actions = pytest.importorskip(
     "sources, ../shared/upstream or FISHTAIL_ROS2_UPSTREAM, are there)",
 )
 
-import launch  # noqa: E402
 from launch.actions import DeclareLaunchArgument  # noqa: E402
 from launch.launch_description_sources import (  # noqa: E402
     get_launch_description_from_python_launch_file,
@@ -34,6 +33,7 @@ from launch.substitutions import LaunchConfiguration  # noqa: E402
 from launch.utilities import perform_substitutions  # noqa: E402
 from launch_ros.utilities import evaluate_parameters, normalize_parameters  # noqa: E402
 
+import launch  # noqa: E402
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS  # noqa: E402
 
 SRC = Path(__file__).resolve().parents[2]

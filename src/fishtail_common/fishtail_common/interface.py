@@ -215,7 +215,7 @@ SUITE_NODES: tuple[SuiteNode, ...] = (
 SWIM_NODE = SuiteNode("swim", "fishtail_swim", "sim", "fishtail_swim.nodes.sim_node")
 #: The pilot (cmd_vel and goal_pose in, carrier and pivot commands out): not in the default suite
 #: (``fishtail-run --pilot`` adds it, with the simulator).
-PILOT_NODE = SuiteNode("pilot", "fishtail_swim", "pilot", "fishtail_swim.nodes.pilot_node")
+PILOT_NODE = SuiteNode("pilot", "fishtail_swim", "pilot", "fishtail_pilot.node")
 #: The live view (a Rerun viewer's data source): not in the default suite (``fishtail-run --view``
 #: adds it).
 VIEW_NODE = SuiteNode("view", "fishtail_bringup", "fishtail-view", "fishtail_bringup.view")

@@ -59,7 +59,7 @@ def test_levels_are_diagnostic_msgs_levels():
 
 
 def test_default_parameter_file_prefers_the_workspace(monkeypatch, tmp_path):
-    from fishtail_common.config_files import default_parameter_file
+    from fishtail_common.parameter_files import default_parameter_file
 
     (tmp_path / "config").mkdir()
     (tmp_path / "config" / "undulatory.yaml").write_text("/**: {}\n")
@@ -68,7 +68,7 @@ def test_default_parameter_file_prefers_the_workspace(monkeypatch, tmp_path):
 
 
 def test_default_parameter_file_falls_back_to_the_install(monkeypatch, tmp_path):
-    from fishtail_common.config_files import default_parameter_file
+    from fishtail_common.parameter_files import default_parameter_file
 
     monkeypatch.setenv("FISHTAIL_ROOT", str(tmp_path))  # a workspace without that file
     path = default_parameter_file("oscillatory")

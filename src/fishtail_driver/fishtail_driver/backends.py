@@ -5,9 +5,9 @@ needs of the node (:meth:`MotorBackend.watchdog_refusal`, :meth:`MotorBackend.se
 and how often it can have a new sample (:attr:`MotorBackend.max_sample_rate_hz`). This module
 holds the interface and the simulated motor's backend; the board's is
 :mod:`fishtail_driver.serial_backend`. The simulated backend runs any :class:`SimMotor`: the
-first-order speed lag (:class:`fishtail_driver.motor_model.SimulatedMotor`) or the DC gear motor
-under the firmware's speed loop (:class:`fishtail_driver.dc_drive.PidDrivenDcMotor`). It does not
-import rclpy.
+first-order speed lag (:class:`fishtail_plant.motor.first_order.SimulatedMotor`) or the DC gear
+motor under the firmware's speed loop
+(:class:`fishtail_plant.motor.pid_dc_motor.PidDrivenDcMotor`). It does not import rclpy.
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ board took it, and publishes what it returns.
   parse (a flipped digit) and is dropped as an *outlier*.
 - The velocity is the count difference over a sliding window.
 
->>> from fishtail_driver.protocol import Scale
+>>> from fishtail_plant.motor.board_units import Scale
 >>> tracker = EncoderTracker(Scale(counts_per_revolution=1000), "left", max_speed_rad_s=20.0)
 >>> tracker.accept((5000, 0), 0.0, after_connect=True, driven=False).sample.angle_rad
 0.0
@@ -35,7 +35,8 @@ import dataclasses
 import math
 
 from fishtail_driver.backends import EncoderSample
-from fishtail_driver.protocol import CHANNELS, Scale, wrap_int32
+from fishtail_driver.protocol import CHANNELS
+from fishtail_plant.motor.board_units import Scale, wrap_int32
 
 #: A count this close to zero is standstill jitter, not a reset, when it reads 0.
 JITTER_COUNTS = 2

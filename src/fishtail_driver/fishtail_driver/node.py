@@ -24,7 +24,7 @@ Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the who
 
 Parameters: :mod:`fishtail_driver.parameters`; with ``motor_load`` (sim, ``motor_model: dc``) also
 the tail's, its links' and the fish's, read-only, from which the motor's load is built once at start
-(:mod:`fishtail_driver.sim_load`). A watchdog, on a timer of its own (at most 50 ms,
+(:mod:`fishtail_plant.values`). A watchdog, on a timer of its own (at most 50 ms,
 whatever the publish rate), stops the motor when no command (speed or profile) arrives for
 ``cmd_timeout_sec``, and leaves the pivot where it is;
 SIGINT and SIGTERM stop the motor before the node exits (:func:`fishtail_common.ros.run_node`
@@ -76,17 +76,19 @@ from fishtail_driver.parameters import (
     DRIVER_PARAMETERS,
     SPECS,
     ParameterValues,
+    load_refusal,
     make_backend,
     pivot_refusal,
 )
 from fishtail_driver.pivot_output import make_pivot_output
 from fishtail_driver.profile_command import CarrierCommand, CommandRefusedError
-from fishtail_driver.sim_load import NO_LOAD, load_parameters, load_refusal, tail_load
 from fishtail_driver.stamping import ClockMapping, IncreasingStamps
 from fishtail_msgs.msg import CarrierSpeedProfile
+from fishtail_plant.linkage_load.surroundings import NO_LOAD
+from fishtail_plant.values import read_only_load_parameters, tail_load_from_values
 
 if TYPE_CHECKING:
-    from fishtail_swim.dynamics.motor_load import TailLoad
+    from fishtail_plant.linkage_load.tail_load import TailLoad
 
 #: A backend keeps a non-zero speed alive for cmd_timeout_sec plus this [s].
 COMMAND_HOLD_MARGIN_S = 0.25
@@ -195,7 +197,7 @@ class DriverNode(SuiteNodeBase):
         reason = load_refusal(values)
         if reason is not None:
             raise ValueError(reason)
-        return tail_load(declare(self, load_parameters()), self.motor_load)
+        return tail_load_from_values(declare(self, read_only_load_parameters()), self.motor_load)
 
     # ---- parameters changed at run time
 

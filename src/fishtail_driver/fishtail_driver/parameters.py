@@ -8,30 +8,27 @@ The sim backend's motor is ``motor_model``'s: ``first_order`` (a speed lag,
 ``sim_time_constant_sec``) or ``dc`` (a DC gear motor, ``motor_*``, ``supply_voltage_v``,
 ``gear_ratio``, ``gearbox_efficiency``, ``rotor_inertia_kg_m2``, the frictions, under the board
 firmware's speed loop with ``pid_k*`` every ``1000 // serial_pid_rate_hz`` ms). The ``dc``
-defaults are a Pololu 37D 12 V motor (:class:`fishtail_swim.dynamics.dc_motor.
+defaults are a Pololu 37D 12 V motor (:class:`fishtail_plant.motor.dc_motor.
 DcMotorParameters`), whose 30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
 ``encoder_counts_per_revolution:=64`` (not those parameters' defaults: :data:`DC_MOTOR_ENCODER`).
 With ``motor_load`` other than ``none`` the DC motor turns the tail (:mod:`fishtail_driver.
 sim_load`); the node then declares the tail's, links' and fish's parameters as well. ``pivot_*``
-describe the pivot actuator (:mod:`fishtail_driver.pivot_actuator`), simulated beside the
+describe the pivot actuator (:mod:`fishtail_plant.pivot_actuator`), simulated beside the
 simulated backend only (:func:`pivot_refusal`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Mapping
 
 from fishtail_common.interface import CARRIER_JOINT
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_driver.backends import MotorBackend, SimBackend, SimMotor
-from fishtail_driver.dc_drive import PidDrivenDcMotor, unstable_speed_loop
-from fishtail_driver.firmware_pid import PidGains
-from fishtail_driver.motor_model import MotorParameters, SimulatedMotor
-from fishtail_driver.pivot_actuator import PivotLimits
-from fishtail_driver.protocol import Scale
-from fishtail_driver.sim_load import MOTOR_LOADS, NO_LOAD
 from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
-from fishtail_swim.dynamics.dc_motor import (
+from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
+from fishtail_plant.motor.board_units import Scale
+from fishtail_plant.motor.dc_motor import (
     DcMotor,
     DcMotorParameters,
     LoadInertia,
@@ -39,7 +36,10 @@ from fishtail_swim.dynamics.dc_motor import (
     zero_load,
     zero_load_inertia,
 )
-from fishtail_swim.steering import PIVOT_STROKE_DEFAULT_M
+from fishtail_plant.motor.first_order import MotorParameters, SimulatedMotor
+from fishtail_plant.motor.pid_dc_motor import PidDrivenDcMotor, unstable_speed_loop
+from fishtail_plant.motor.speed_loop import PidGains
+from fishtail_plant.pivot_actuator import PIVOT_SPEED, PIVOT_STROKE, PivotLimits
 
 ParameterValues = Mapping[str, ParameterValue]
 #: ``pivot_actuator`` values.
@@ -83,7 +83,7 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   "tail in air (its links' inertia), in water with the fish held at rest "
                   "(water_held) or towed at the speed it swims at (water_swimming); the tail, its "
                   "links' masses and the fish are the geometry, link-inertia and fish parameters "
-                  "(config/<mechanism>.yaml, config/fish.yaml)", choices=MOTOR_LOADS,
+                  "(config/<mechanism>.yaml, config/fish.yaml)", choices=SURROUNDINGS,
                   read_only=True),
     # The DC motor (motor_model dc): electrical and friction figures at the motor shaft, before
     # the gearbox (gear_ratio). Defaults: a Pololu 37D 12 V motor (dc_motor.DcMotorParameters).
@@ -132,15 +132,12 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("serial_stale_timeout_sec", 1.0, "serial: no valid reply for this long: "
                   "reconnect", "s", 0.1, 60.0, read_only=True),
     # The pivot actuator: a lead screw shifting the tail's pivot S along the body axis
-    # (fishtail_driver.pivot_actuator); the command watchdog leaves it where it is.
+    # (fishtail_plant.pivot_actuator); the command watchdog leaves it where it is.
     ParameterSpec("pivot_actuator", "none", "the pivot actuator: none (no pivot topics) or sim (a "
                   "simulated lead screw: pivot/cmd_position in, pivot/joint_state out; backend "
                   "sim only)", choices=PIVOT_ACTUATORS, read_only=True),
-    ParameterSpec("pivot_stroke_m", PIVOT_STROKE_DEFAULT_M,
-                  "pivot: half its travel; it moves within +- this of the design position", "m",
-                  0.001, 1.0, read_only=True),
-    ParameterSpec("pivot_speed_m_s", 0.01, "pivot: the lead screw's speed (constant towards the "
-                  "target, stopping at it)", "m/s", 0.0001, 1.0, read_only=True),
+    dataclasses.replace(PIVOT_STROKE, read_only=True),
+    dataclasses.replace(PIVOT_SPEED, read_only=True),
 )  # fmt: skip
 
 #: The specs by name.
@@ -260,6 +257,20 @@ def make_backend(
     ValueError, with the reason, for settings the backend cannot work with.
     """
     return _BACKENDS[str(values["backend"])](values, load, load_inertia)
+
+
+def load_refusal(values: Mapping[str, object]) -> str | None:
+    """Why the driver's ``values`` cannot carry their ``motor_load``, or None when they can."""
+    load = values["motor_load"]
+    if load == NO_LOAD:
+        return None
+    if values["backend"] != "sim" or values["motor_model"] != "dc":
+        return (
+            f"motor_load {load} needs backend sim with motor_model dc (got backend "
+            f"{values['backend']}, motor_model {values['motor_model']}): only the simulated DC "
+            "motor feels a load"
+        )
+    return None
 
 
 def pivot_refusal(values: ParameterValues) -> str | None:

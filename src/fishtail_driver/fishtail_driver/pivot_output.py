@@ -3,7 +3,7 @@
 ``pivot_actuator`` chooses the output (:func:`make_pivot_output`):
 
 * ``none`` (:class:`NoPivot`): nothing is subscribed or published, no status;
-* ``sim`` (:class:`SimPivot`): a simulated lead screw (:mod:`fishtail_driver.pivot_actuator`)
+* ``sim`` (:class:`SimPivot`): a simulated lead screw (:mod:`fishtail_plant.pivot_actuator`)
 
   sub ``pivot/cmd_position``  std_msgs/Float64, the shift of the pivot S [m], + towards the tail
   pub ``pivot/joint_state``   sensor_msgs/JointState (``pivot_joint``: position [m], velocity
@@ -38,8 +38,8 @@ from fishtail_common.interface import (
 )
 from fishtail_common.ros import ListenedPublisher, SuiteNodeBase, qos_profile
 from fishtail_driver.parameters import NO_PIVOT, ParameterValues, pivot_limits
-from fishtail_driver.pivot_actuator import PivotActuator, PivotCommandOutcome, PivotLimits
 from fishtail_driver.stamping import IncreasingStamps
+from fishtail_plant.pivot_actuator import PivotActuator, PivotCommandOutcome, PivotLimits
 
 #: The node's stamping: the ROS stamp of a monotonic time for one stream, or None when it would
 #: not be after that stream's previous stamp.

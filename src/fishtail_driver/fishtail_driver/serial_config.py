@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 
-from fishtail_driver.protocol import CHANNELS, MAX_REPLY_BYTES, Scale, encode_update_pid
+from fishtail_driver.protocol import CHANNELS, MAX_REPLY_BYTES, encode_update_pid
+from fishtail_plant.motor.board_units import Scale
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,10 +14,10 @@ from std_msgs.msg import Float64
 
 from fishtail_common.interface import PIVOT_JOINT
 from fishtail_common.testing import DISCOVERY_TIMEOUT_S
-from fishtail_driver.modulation_fit import measure_following
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_msgs.msg import CarrierSpeedProfile as ProfileMessage
+from fishtail_testkit.modulation_fit import measure_following
 
 OK, WARN = 0, 1
 ONE_HZ = 2.0 * math.pi

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from fishtail_driver import encoder_tracking
 from fishtail_driver.encoder_tracking import CountUnwrapper, EncoderTracker
-from fishtail_driver.protocol import INT32_MAX, INT32_MIN, Scale, wrap_int32
+from fishtail_plant.motor.board_units import INT32_MAX, INT32_MIN, Scale, wrap_int32
 
 
 def test_doctests():

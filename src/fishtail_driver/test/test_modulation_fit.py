@@ -13,16 +13,16 @@ import math
 import numpy as np
 import pytest
 
-from fishtail_driver import modulation_fit
-from fishtail_driver.modulation_fit import (
+from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_sim_motor
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from fishtail_testkit import modulation_fit
+from fishtail_testkit.modulation_fit import (
     fit_revolutions,
     follow_simulated,
     measure_following,
     speeds_from_angles,
     wrap_angle,
 )
-from fishtail_driver.parameters import DC_MOTOR_ENCODER, DRIVER_PARAMETERS, make_sim_motor
-from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 
 ONE_HZ = 2.0 * math.pi  # the mean carrier speed of a 1 Hz beat [rad/s]
 

@@ -1,1 +1,1 @@
-"""Swimming dynamics of the robotic fish (the pure model in :mod:`fishtail_swim.dynamics`)."""
+"""Swimming dynamics of the robotic fish (the pure model in :mod:`fishtail_plant.fish`)."""

@@ -9,9 +9,9 @@ from PIL import Image
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics.fish import FishParameters
-from fishtail_swim.dynamics.model import PSI, X, Y
-from fishtail_swim.dynamics.outline import body_to_world
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.fish.model import PSI, X, Y
+from fishtail_plant.fish.outline import body_to_world
 from fishtail_swim.offline import animate
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.time_run import run_from_rest

@@ -29,7 +29,7 @@ from fishtail_common.interface import (
 )
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics.fish import FishParameters
+from fishtail_plant.fish.fish import FishParameters
 from fishtail_swim.offline import animate, recorded_run
 
 ROOT = Path(__file__).resolve().parents[3]

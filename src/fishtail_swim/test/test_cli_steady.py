@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
-from fishtail_swim.dynamics.figures import steady_surge_speed
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
-from fishtail_swim.fish_config import load_fish_parameters
+from fishtail_plant.fish.figures import steady_surge_speed
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.values import load_fish_parameters
 
 CONFIG = Path(__file__).resolve().parents[3] / "config"
 OSCILLATORY = CONFIG / "oscillatory.yaml"

@@ -11,8 +11,8 @@ import pytest
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics.steady_turn import TurnSettings, modulation_turns, pivot_shift_turns
-from fishtail_swim.fish_config import load_fish_parameters
+from fishtail_plant.fish.steady_turn import TurnSettings, modulation_turns, pivot_shift_turns
+from fishtail_plant.values import load_fish_parameters
 from fishtail_swim.offline.cli import main
 
 CONFIG = Path(__file__).resolve().parents[3] / "config"

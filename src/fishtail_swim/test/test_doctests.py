@@ -8,11 +8,11 @@ import fishtail_swim
 from fishtail_common.docstring_examples import pure_modules, run_examples
 
 
-def test_the_dynamics_modules_are_found():
-    """The discovery sees the dynamics modules (so the doctest run below cannot be empty)."""
+def test_the_modules_are_found():
+    """The discovery sees the offline modules (so the doctest run below cannot be empty)."""
     names = {name for name, _ in pure_modules(fishtail_swim)}
-    for module in ("formulas", "model", "integrator", "fish", "motor_load"):
-        assert f"fishtail_swim.dynamics.{module}" in names
+    for module in ("frames", "offline.cli", "offline.fit"):
+        assert f"fishtail_swim.{module}" in names
 
 
 @pytest.mark.parametrize(("name", "has_examples"), pure_modules(fishtail_swim))

@@ -12,13 +12,13 @@ import pytest
 import yaml
 from scipy.optimize import minimize_scalar
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
-from fishtail_swim.dynamics.figures import beat_means, steady_surge_speed
-from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
-from fishtail_swim.fish_config import load_fish_parameters, read_fish_values
+from fishtail_plant.fish.figures import beat_means, steady_surge_speed
+from fishtail_plant.fish.fish import FISH_PARAMETERS, FishParameters
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.values import load_fish_parameters, read_fish_values
 from fishtail_swim.offline.fit import (
     fish_file_text,
     fit_drag,

@@ -8,11 +8,11 @@ import io
 import numpy as np
 import pytest
 
-from fishtail_kinematics.engine.carrier_load import carrier_load
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
-from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics.fish import FishParameters
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.linkage_load.carrier_load import carrier_load
+from fishtail_plant.linkage_load.link_inertia import LinkInertia
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.motor_load_table import (
     MotorLoadRows,

@@ -9,11 +9,11 @@ import pytest
 from PIL import Image
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
-from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.dynamics.dc_motor import DcMotorParameters
-from fishtail_swim.dynamics.fish import FishParameters
-from fishtail_swim.dynamics.motor_load import TailLoad
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.linkage_load.link_inertia import LinkInertia
+from fishtail_plant.linkage_load.tail_load import TailLoad
+from fishtail_plant.motor.dc_motor import DcMotorParameters
 from fishtail_swim.offline.full_duty_run import run_at_full_duty
 from fishtail_swim.offline.motor_load_table import motor_load_rows
 from fishtail_swim.offline.motor_sizing import (

@@ -31,10 +31,6 @@ class InvalidInputError(FishtailKinematicsError):
     """A carrier angle or speed given to a solver is NaN or infinite."""
 
 
-class InvalidInertiaError(FishtailKinematicsError):
-    """A link's mass or moment of inertia is non-finite or negative."""
-
-
 class SolverError(FishtailKinematicsError):
     """The undulatory loop did not close to tolerance (a geometry at or near a toggle pose)."""
 

@@ -1,7 +1,7 @@
 """How every moving body of a solved linkage moves and accelerates: second-order kinematics.
 
 For a state solved at carrier speed phi_dot, each body's centre of mass G (the middle of the link,
-see :mod:`~fishtail_kinematics.engine.link_inertia`) has a velocity and an acceleration, and the
+see :mod:`~fishtail_plant.linkage_load.link_inertia`) has a velocity and an acceleration, and the
 body an angular velocity and an angular acceleration, while the carrier turns steadily at that
 speed. At phi_dot = 1 rad/s these are the linkage's velocity ratios dG/dphi, dtheta/dphi and their
 derivatives d2G/dphi2, d2theta/dphi2; at any speed they scale with phi_dot and phi_dot^2. Frame and
@@ -75,7 +75,7 @@ from fishtail_kinematics.engine.geometry import (
 class PlaneMotion(NamedTuple):
     """A body in general plane motion; floats or arrays shaped like the state's fields.
 
-    ``link`` names it as :mod:`~fishtail_kinematics.engine.link_inertia` does. Velocities [m/s]
+    ``link`` names it as :mod:`~fishtail_plant.linkage_load.link_inertia` does. Velocities [m/s]
     and accelerations [m/s^2] are those of its centre of mass, in the frame at O; the angular
     ones [rad/s, rad/s^2] are about z. A translating body has zero angular velocity.
     """

@@ -4,8 +4,8 @@ The kinematics node declares :data:`MECHANISM` and the geometry specs
 (:data:`~fishtail_kinematics.engine.geometry.GEOMETRY_PARAMETERS`), the command line builds its
 flags from them, and ``config/*.yaml`` must agree with them (a test checks). The same files hold
 the links' masses and moments of inertia
-(:data:`~fishtail_kinematics.engine.link_inertia.INERTIA_PARAMETERS`), which are not geometry:
-they are read by :func:`~fishtail_kinematics.engine.link_inertia.link_inertia_from_parameters`.
+(:data:`~fishtail_plant.linkage_load.link_inertia.INERTIA_PARAMETERS`), which are not geometry:
+they are read by :func:`~fishtail_plant.linkage_load.link_inertia.link_inertia_from_parameters`.
 
 >>> geometry = geometry_from_parameters({"mechanism": "oscillatory", "pivot_offset_m": 0.18})
 >>> geometry.pivot_offset_m
@@ -30,7 +30,7 @@ from fishtail_kinematics.engine.geometry import (
     OSCILLATORY,
     Geometry,
 )
-from fishtail_kinematics.engine.link_inertia import INERTIA_PARAMETERS_BY_NAME
+from fishtail_plant.linkage_load.link_inertia import INERTIA_PARAMETERS_BY_NAME
 
 MECHANISM = ParameterSpec("mechanism", OSCILLATORY, "tail mechanism", choices=MECHANISMS)
 #: The mechanism and every length: the parameters that make a geometry.

@@ -66,7 +66,7 @@ class Tail(abc.ABC):
     joint_names: ClassVar[tuple[str, ...]]
     #: The angle of a second tail joint (the fin link's), if the mechanism has one.
     fin_joint: ClassVar[str | None]
-    #: The moving bodies, named as in :mod:`~fishtail_kinematics.engine.link_inertia`.
+    #: The moving bodies, named as in :mod:`~fishtail_plant.linkage_load.link_inertia`.
     links: ClassVar[tuple[str, ...]]
     #: The named tuple :meth:`solve` returns.
     state_type: ClassVar[type[OscillatoryState] | type[UndulatoryState]]

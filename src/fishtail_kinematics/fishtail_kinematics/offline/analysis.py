@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from fishtail_common.config_files import default_parameter_file
+from fishtail_common.parameter_files import default_parameter_file, load_parameter_file
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import (
     INPUT_FIELDS,
@@ -52,7 +52,6 @@ from fishtail_kinematics.engine.symmetry import (
     judge,
 )
 from fishtail_kinematics.offline.analysis_figures import write_figures
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_kinematics.offline.recording import (
     AnalysisError,
     Recording,

@@ -17,6 +17,7 @@ from typing import TextIO
 
 import numpy as np
 
+from fishtail_common.parameter_files import ParameterFileError, load_parameter_file
 from fishtail_kinematics.engine import design
 from fishtail_kinematics.engine.errors import FishtailKinematicsError, PivotShiftError
 from fishtail_kinematics.engine.geometry import (
@@ -33,7 +34,6 @@ from fishtail_kinematics.engine.parameters import (
 )
 from fishtail_kinematics.offline import animation, plots
 from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_kinematics.offline.table_columns import FIELD_OF_COLUMN, table_columns
 
 PROGRAM = "fishtail-kinematics"
@@ -296,7 +296,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise UsageError(f"cannot write {arguments.output}: {error.strerror}") from None
         else:
             command(arguments, sys.stdout)
-    except (FishtailKinematicsError, UsageError) as error:
+    except (FishtailKinematicsError, ParameterFileError, UsageError) as error:
         print(f"{PROGRAM}: error: {error}", file=sys.stderr)
         return 2
     except BrokenPipeError:

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
-from fishtail_kinematics.engine.link_inertia import LINKS
 from fishtail_kinematics.engine.link_motion import PlaneMotion
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
+from fishtail_plant.linkage_load.link_inertia import LINKS
 
 CYCLE = np.linspace(0.0, 2.0 * math.pi, 361)
 OTHER_OSCILLATORY = OscillatoryGeometry(

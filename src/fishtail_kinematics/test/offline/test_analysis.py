@@ -22,11 +22,11 @@ from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.mechanisms import UndulatoryTail, make_tail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
 from fishtail_kinematics.engine.symmetry import SymmetryTolerances, Verdict, beats_of, judge
 from fishtail_kinematics.offline import analyse_cli, analysis, cli
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 
 ROOT = Path(__file__).resolve().parents[4]
 CONFIG = ROOT / "config"

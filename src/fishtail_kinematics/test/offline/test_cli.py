@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 from fishtail_kinematics.engine.parameters import geometry_from_parameters
 from fishtail_kinematics.offline import cli
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
 from fishtail_kinematics.offline.table_columns import table_columns
 
 CONFIG = Path(__file__).resolve().parents[4] / "config"

@@ -7,7 +7,7 @@ point a tick, so the path covers ``markers_path_length / markers_rate_hz`` secon
 anybody subscribes, one MarkerArray is published:
 
 * ``body``: the hull's outline, an ellipse of the body's length and diameter round C, turned by
-  the yaw (the spheroid cut in the plane of swimming; :mod:`fishtail_swim.dynamics.outline`);
+  the yaw (the spheroid cut in the plane of swimming; :mod:`fishtail_plant.fish.outline`);
 * ``path``: C's recent positions;
 * ``tail``: the ring-gear centre O and the tail tip T at the latest carrier angle, from the
   kinematics engine, carried from the tail frame (x back, y left) into the body and the world.
@@ -30,9 +30,9 @@ from fishtail_common.interface import FISH_MARKERS, WORLD_FRAME
 from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import ListenedPublisher
 from fishtail_kinematics.engine.mechanisms import Tail
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.model import PSI, X, Y
-from fishtail_swim.dynamics.outline import body_outline, body_to_world, tail_to_body
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.fish.model import PSI, X, Y
+from fishtail_plant.fish.outline import body_outline, body_to_world, tail_to_body
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time

@@ -21,7 +21,7 @@ Topics (relative names):
                              samples were dropped or the input has gaps or a low rate; else OK,
                              with the fish's speed, heading and position among the values
 
-The dynamics are :mod:`fishtail_swim.dynamics`, driven through :class:`SwimFollower` (RK4 between
+The dynamics are :mod:`fishtail_plant.fish`, driven through :class:`SwimFollower` (RK4 between
 consecutive samples on the linearly interpolated carrier angle, sub-steps of at most
 ``max_step_sec``). Implausible samples are dropped by the kinematics node's rules
 (:mod:`fishtail_kinematics.engine.input_guard`) and counted per reason; when the guard follows the
@@ -81,10 +81,11 @@ from fishtail_kinematics.engine.input_guard import (
     input_status,
 )
 from fishtail_msgs.msg import SwimFigures
-from fishtail_swim.dynamics.errors import SwimError
-from fishtail_swim.dynamics.fish import FISH_PARAMETERS
-from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
-from fishtail_swim.follower import BeatFigures, StampNotIncreasingError, SwimFollower
+from fishtail_plant.errors import SwimError
+from fishtail_plant.fish.fish import FISH_PARAMETERS
+from fishtail_plant.fish.follower import BeatFigures, StampNotIncreasingError, SwimFollower
+from fishtail_plant.fish.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
+from fishtail_plant.values import TAIL_PARAMETERS, fish_from_values, tail_from_values
 from fishtail_swim.frames import yaw_quaternion
 from fishtail_swim.nodes.fish_markers import (
     MARKER_PARAMETERS,
@@ -93,7 +94,6 @@ from fishtail_swim.nodes.fish_markers import (
     FishMarkerPublisher,
 )
 from fishtail_swim.nodes.fish_tf import PUBLISH_TF, FishTfBroadcaster, tf_message_type
-from fishtail_swim.tail_and_fish import TAIL_PARAMETERS, fish_from_values, tail_from_values
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time

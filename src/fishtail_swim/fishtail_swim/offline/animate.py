@@ -4,7 +4,7 @@ Frame k shows the fish at t_k = k / fps. Its pose (X, Y, psi) and velocity are t
 interpolated linearly between the RK4 samples (16-48 a beat: far below a pixel here); the
 linkage is the engine's at the carrier angle speed * t_k (the carrier turns at constant speed
 from phi = 0, as in the run), carried from the tail frame through the body into the world by
-:mod:`fishtail_swim.dynamics.outline`, the geometry the simulator's RViz markers use.
+:mod:`fishtail_plant.fish.outline`, the geometry the simulator's RViz markers use.
 
 The view is fixed on the whole path while the path, fish included, spans at most
 :data:`FIT_SPAN` fish widths; a longer path would make the fish a speck, so the view then follows
@@ -40,9 +40,9 @@ import numpy.typing as npt
 from fishtail_kinematics.engine.linkage_points import LinkagePoints
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_kinematics.offline.animation import MAX_FPS, MAX_FRAMES
-from fishtail_swim.dynamics.fish import FishParameters, FloatArray
-from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, X, Y
-from fishtail_swim.dynamics.outline import body_outline, body_to_world, tail_to_body
+from fishtail_plant.fish.fish import FishParameters, FloatArray
+from fishtail_plant.fish.model import PSI, SURGE, SWAY, X, Y
+from fishtail_plant.fish.outline import body_outline, body_to_world, tail_to_body
 from fishtail_swim.offline.progress import Progress
 
 if TYPE_CHECKING:

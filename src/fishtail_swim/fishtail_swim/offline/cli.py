@@ -20,9 +20,9 @@ import numpy as np
 from fishtail_common.bag_reading import BagError
 from fishtail_common.parameters import ParameterValueError
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
-from fishtail_swim.dynamics.errors import SwimError
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.motor_load import TailLoad
+from fishtail_plant.errors import SwimError
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_swim.offline import animate, recorded_run, run_output
 from fishtail_swim.offline.fit import fish_file_text, fit_drag, read_measurements, write_fit_report
 from fishtail_swim.offline.fit_free_body import (

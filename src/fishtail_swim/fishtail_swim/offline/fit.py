@@ -12,7 +12,7 @@ row alike. Yaw rates, which may be zero or of either sign, are compared per unit
 (r_model - r_measured) / carrier speed, which weights the rows alike for the same reason.
 
 Speeds only: the cycle-average balance with sway and yaw held, <F_T,x>(U) = ½ rho S C_D U²
-(:func:`~fishtail_swim.dynamics.figures.steady_surge_speed`). Its speed is exactly the carrier
+(:func:`~fishtail_plant.fish.figures.steady_surge_speed`). Its speed is exactly the carrier
 speed times a function s(C_D) that falls monotonically with C_D, so the least-squares fit of the
 relative residuals s w_i / U_i - 1 is the closed form s* = sum(x_i) / sum(x_i²), x_i = w_i / U_i,
 and the C_D that gives s* is the balance itself solved for C_D at U* = s* w:
@@ -38,15 +38,15 @@ from typing import NamedTuple, TextIO
 
 import numpy as np
 
-from fishtail_swim.dynamics.errors import SwimError
-from fishtail_swim.dynamics.figures import cycle_mean_tail_force, steady_surge_speed
-from fishtail_swim.dynamics.fish import (
+from fishtail_plant.errors import SwimError
+from fishtail_plant.fish.figures import cycle_mean_tail_force, steady_surge_speed
+from fishtail_plant.fish.fish import (
     FISH_PARAMETERS,
     FISH_PARAMETERS_BY_NAME,
     FishParameters,
     FloatArray,
 )
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.tables import Column, write_table
 

@@ -33,10 +33,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import least_squares
 
-from fishtail_swim.dynamics.errors import SwimInputError
-from fishtail_swim.dynamics.figures import beat_means
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.spheroid import crossflow_yaw_damping
+from fishtail_plant.errors import SwimInputError
+from fishtail_plant.fish.figures import beat_means
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.fish.spheroid import crossflow_yaw_damping
 from fishtail_swim.offline.fit import (
     DRAG,
     YAW_DAMPING,

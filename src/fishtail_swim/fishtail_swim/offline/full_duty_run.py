@@ -1,7 +1,7 @@
 """The DC motor at full duty turning the tail, revolution by revolution until its motion repeats.
 
 The time-stepped level of :mod:`fishtail_swim.offline.motor_sizing`: the DC motor
-(:class:`fishtail_swim.dynamics.dc_motor.DcMotor`) with the duty at 1 (the firmware's PWM at its
+(:class:`fishtail_plant.motor.dc_motor.DcMotor`) with the duty at 1 (the firmware's PWM at its
 clamp, 255: the speed loop saturated) and the tail's load, stepped at the motor's own internal
 step. Each revolution's time, current (its mean and RMS, by the exact integral of the current's
 straight line between steps) and extremes are kept; a revolution ends where the angle's cubic
@@ -10,7 +10,7 @@ has settled (the motion is periodic: the carrier's speed ripples the same way ev
 carrier sticks, or a limit of :class:`RunLimits` is reached; the figures are the last settled
 revolutions'.
 
->>> from fishtail_swim.dynamics.dc_motor import DcMotorParameters
+>>> from fishtail_plant.motor.dc_motor import DcMotorParameters
 >>> motor = DcMotorParameters.from_stall_and_no_load(
 ...     supply_voltage_v=12.0, stall_torque_n_m=1.0, no_load_speed_rad_s=20.0, gear_ratio=30.0)
 >>> run = run_at_full_duty(motor, lambda phi, omega: 0.0, lambda phi: 0.0)
@@ -24,7 +24,7 @@ import math
 from collections.abc import Callable
 from typing import NamedTuple
 
-from fishtail_swim.dynamics.dc_motor import DcMotor, DcMotorParameters, LoadInertia, LoadTorque
+from fishtail_plant.motor.dc_motor import DcMotor, DcMotorParameters, LoadInertia, LoadTorque
 
 
 class RunLimits(NamedTuple):

@@ -14,9 +14,8 @@ import math
 from pathlib import Path
 from typing import NamedTuple, NoReturn
 
-from fishtail_common.config_files import default_parameter_file
+from fishtail_common.parameter_files import default_parameter_file, load_parameter_file
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
-from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import (
     MECHANISM,
@@ -24,10 +23,9 @@ from fishtail_kinematics.engine.parameters import (
     geometry_parameters_in,
 )
 from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
-from fishtail_kinematics.offline.parameter_files import load_parameter_file
-from fishtail_swim.dynamics.fish import FISH_PARAMETERS, FishParameters
-from fishtail_swim.fish_config import read_fish_values
-from fishtail_swim.tail_and_fish import link_inertia_from_values
+from fishtail_plant.fish.fish import FISH_PARAMETERS, FishParameters
+from fishtail_plant.linkage_load.link_inertia import LinkInertia
+from fishtail_plant.values import link_inertia_from_values, read_fish_values
 
 PROGRAM = "fishtail-swim"
 #: The fish's parameter file, under config/ of the workspace or of the install.

@@ -1,14 +1,14 @@
 """The carrier's torque and power over a revolution at constant speeds: a table for motor sizing.
 
 For each carrier speed (constant, phi_ddot = 0) the carrier's torque is sampled evenly over one
-revolution (:class:`~fishtail_kinematics.engine.carrier_load.CarrierLoadModel`) in three cases:
+revolution (:class:`~fishtail_plant.linkage_load.carrier_load.CarrierLoadModel`) in three cases:
 
 * air: the links' inertia only;
 * water, held at rest: the inertia and the water's force on the tail with the fish held at
-  u = v = r = 0 (:func:`~fishtail_swim.dynamics.tail_load.carrier_load_in_water`);
+  u = v = r = 0 (:func:`~fishtail_plant.linkage_load.water.carrier_load_in_water`);
 * water, swimming: the same with the fish held at the forward speed U it reaches at that carrier
   speed (the cycle-average steady speed, sway and yaw held:
-  :func:`~fishtail_swim.dynamics.figures.steady_surge_speed`).
+  :func:`~fishtail_plant.fish.figures.steady_surge_speed`).
 
 For each: the peak of |tau|, its RMS over the revolution (the figure that heats a DC motor's
 winding) and the mean power tau phi_dot (the shaft power the motor delivers on average); the peak
@@ -17,7 +17,7 @@ time. docs/motor-load.md prints the table for the report's geometry.
 
 >>> import io
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
->>> from fishtail_kinematics.engine.link_inertia import LinkInertia
+>>> from fishtail_plant.linkage_load.link_inertia import LinkInertia
 >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
 >>> rows = motor_load_rows(
 ...     OscillatoryTail(OscillatoryGeometry()), LinkInertia(), FishParameters(), [4.0, 8.0])
@@ -32,13 +32,13 @@ from typing import Any, NamedTuple, TextIO
 import numpy as np
 import numpy.typing as npt
 
-from fishtail_kinematics.engine.carrier_load import CarrierLoad, CarrierLoadModel
-from fishtail_kinematics.engine.link_inertia import LinkInertia
 from fishtail_kinematics.engine.mechanisms import Tail
-from fishtail_swim.dynamics.figures import steady_surge_speed
-from fishtail_swim.dynamics.fish import FishParameters, FloatArray
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
-from fishtail_swim.dynamics.tail_load import carrier_load_in_water
+from fishtail_plant.fish.figures import steady_surge_speed
+from fishtail_plant.fish.fish import FishParameters, FloatArray
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.linkage_load.carrier_load import CarrierLoad, CarrierLoadModel
+from fishtail_plant.linkage_load.link_inertia import LinkInertia
+from fishtail_plant.linkage_load.water import carrier_load_in_water
 from fishtail_swim.offline.tables import Column, write_table
 
 #: Carrier angles per revolution: the means are those of a periodic trapezoid rule (spectrally

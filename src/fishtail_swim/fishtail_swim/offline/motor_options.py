@@ -4,7 +4,7 @@ A motor is given either by its electrical constants (``--resistance-ohm``,
 ``--torque-constant-n-m-a``) or by two datasheet figures at the carrier (``--stall-torque-n-m``
 and ``--no-load-speed-rad-s`` or ``--no-load-speed-rpm``, at ``--supply-voltage-v``, through
 ``--gear-ratio`` and ``--gearbox-efficiency``); options not given keep
-:class:`~fishtail_swim.dynamics.dc_motor.DcMotorParameters`'s defaults (the Pololu 37D, 30:1), which
+:class:`~fishtail_plant.motor.dc_motor.DcMotorParameters`'s defaults (the Pololu 37D, 30:1), which
 are read from it, not repeated here. Its checks give the reasons for bad values; the messages
 name the options.
 """
@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fishtail_swim.dynamics.dc_motor import DcMotorParameters
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.motor_load import SURROUNDINGS
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
+from fishtail_plant.motor.dc_motor import DcMotorParameters
 from fishtail_swim.offline.inputs import UsageError, number, positive_number
 from fishtail_swim.offline.motor_sizing import DEFAULT_FREQUENCIES_HZ
 

@@ -1,8 +1,8 @@
 r"""Motor sizing: how fast a DC gear motor turns the tail, and what it draws doing so.
 
 Carrier speed ω, carrier angle φ; the tail's load is τ_L(φ, ω) = ω² c(φ) with the reduced inertia
-J(φ) (:class:`~fishtail_swim.dynamics.motor_load.TailLoad`); the motor is
-:class:`~fishtail_swim.dynamics.dc_motor.DcMotor` (R, k, N, η, b, τ_c, J_m, supply V). Two levels:
+J(φ) (:class:`~fishtail_plant.linkage_load.tail_load.TailLoad`); the motor is
+:class:`~fishtail_plant.motor.dc_motor.DcMotor` (R, k, N, η, b, τ_c, J_m, supply V). Two levels:
 
 **Quasi-static** (constant carrier speed, φ̈ = 0). The gearbox delivers τ_L(φ) at the carrier; the
 motor supplies e τ_L / N with e = 1/η while it drives the tail and η where the tail drives it back,
@@ -41,7 +41,7 @@ carrier, only slow it. A motor *cannot start the tail* when its stall torque at 
 of its friction) does not exceed the load at rest, and *stalls* when the speed it sustains is
 below the slowest beat frequency asked for (the tail holds it close to its stall current).
 
->>> from fishtail_swim.dynamics.dc_motor import DcMotorParameters
+>>> from fishtail_plant.motor.dc_motor import DcMotorParameters
 >>> motor = DcMotorParameters.from_stall_and_no_load(
 ...     supply_voltage_v=12.0, stall_torque_n_m=1.0, no_load_speed_rad_s=20.0, gear_ratio=30.0)
 >>> free = LoadSamples(np.zeros(8), np.zeros(8))  # no load: both limits are the no-load speed
@@ -58,9 +58,9 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from fishtail_swim.dynamics.dc_motor import DcMotorParameters
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.motor_load import TailLoad
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.linkage_load.tail_load import TailLoad
+from fishtail_plant.motor.dc_motor import DcMotorParameters
 from fishtail_swim.offline.full_duty_run import (
     DEFAULT_RUN_LIMITS,
     FullDutyRun,

@@ -51,7 +51,7 @@ from fishtail_common.interface import (
     PIVOT_JOINT_STATE,
     TAIL_STATE,
 )
-from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_plant.fish.fish import FloatArray
 
 #: Consecutive fish/odom samples further apart than this are a gap (50 samples at the simulator's
 #: 200 Hz, 5 frames at 20 fps).

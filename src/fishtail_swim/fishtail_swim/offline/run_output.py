@@ -9,8 +9,8 @@ from typing import TextIO
 
 import numpy as np
 
-from fishtail_swim.dynamics.fish import FishParameters
-from fishtail_swim.dynamics.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.fish.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
 from fishtail_swim.offline import swim_figures
 from fishtail_swim.offline.time_run import RunFigures, TimeRun
 

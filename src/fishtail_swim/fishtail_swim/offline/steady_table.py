@@ -1,7 +1,7 @@
 """The cycle-average steady swimming table over carrier speeds, and its time-stepped check.
 
 Balance (fast, every speed at once): the body held at u = U, v = r = 0, U from
-:func:`~fishtail_swim.dynamics.figures.steady_surge_speed`; thrust, tail power and the tip's
+:func:`~fishtail_plant.fish.figures.steady_surge_speed`; thrust, tail power and the tip's
 excursion are cycle means of the trailing-edge force over one beat at that U, with the documented
 definitions (P = -<F_T . (-Tx_dot, Ty_dot)>, eta = <F_T,x> U / P, St = f A / U).
 Check (slow): the same fish free in sway and yaw, stepped from rest (:mod:`.time_run`).
@@ -14,10 +14,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_swim.dynamics.figures import steady_surge_speed, tail_power
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.model import trailing_edge_force
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.fish.figures import steady_surge_speed, tail_power
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.fish.model import trailing_edge_force
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.time_run import run_figures, run_from_rest

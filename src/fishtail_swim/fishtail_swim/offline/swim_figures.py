@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from fishtail_swim.dynamics.fish import FloatArray
+from fishtail_plant.fish.fish import FloatArray
 
 
 def _pyplot() -> Any:

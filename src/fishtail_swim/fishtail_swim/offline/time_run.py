@@ -1,6 +1,6 @@
 """Time-stepped runs from rest with the engine in the loop, and their figures over whole beats.
 
-The stepping is :func:`~fishtail_swim.dynamics.integrator.simulate` (classical RK4, the engine
+The stepping is :func:`~fishtail_plant.fish.integrator.simulate` (classical RK4, the engine
 solved at every sub-step time, times from the step count) with a progress report after each block
 of steps; the figures are the dynamics library's (beat means, tail figures).
 """
@@ -12,12 +12,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_swim.dynamics.errors import SwimInputError
-from fishtail_swim.dynamics.figures import BeatMeans, TailFigures, beat_means, tail_figures
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.integrator import Trajectory, simulate
-from fishtail_swim.dynamics.model import SwimModel
-from fishtail_swim.dynamics.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.errors import SwimInputError
+from fishtail_plant.fish.figures import BeatMeans, TailFigures, beat_means, tail_figures
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.fish.integrator import Trajectory, simulate
+from fishtail_plant.fish.model import SwimModel
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 

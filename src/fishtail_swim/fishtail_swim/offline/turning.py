@@ -1,9 +1,9 @@
 """``fishtail-swim turning``: the steady turn against modulation depth and against pivot shift.
 
 One mechanism a run (``--config`` or ``--mechanism``, as every command). The runs are the steering
-map's (:mod:`fishtail_swim.steering_map`) at the asked mean carrier speed: a phase scan at the
+map's (:mod:`fishtail_pilot.steering_map`) at the asked mean carrier speed: a phase scan at the
 deepest depth, then each depth at the strongest phase each way, and the pivot shifts with the
-carrier unmodulated; each a batch stepped from rest (:mod:`fishtail_swim.dynamics.steady_turn`).
+carrier unmodulated; each a batch stepped from rest (:mod:`fishtail_plant.fish.steady_turn`).
 Yaw rates are counter-clockwise positive (a left turn, REP 103); radii are signed the same way.
 """
 
@@ -19,8 +19,18 @@ from typing import NamedTuple, TextIO
 import numpy as np
 
 from fishtail_kinematics.engine.carrier_profile import MAX_DEPTH
-from fishtail_swim.dynamics.fish import FloatArray
-from fishtail_swim.dynamics.steady_turn import (
+from fishtail_pilot.steering_map import (
+    PHASE_COUNT,
+    PIVOT_COUNT,
+    PIVOT_STROKE_M,
+    ModulationTurns,
+    PivotTurns,
+    modulation_study,
+    pivot_study,
+    scan_phases,
+)
+from fishtail_plant.fish.fish import FloatArray
+from fishtail_plant.fish.steady_turn import (
     AVERAGE_BEATS,
     SETTLED_RAD_PER_BEAT,
     TURN_BEATS,
@@ -39,16 +49,6 @@ from fishtail_swim.offline.motor_options import check_figure_path
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.tables import Column, write_table
 from fishtail_swim.offline.turning_figure import plot_turning
-from fishtail_swim.steering_map import (
-    PHASE_COUNT,
-    PIVOT_COUNT,
-    PIVOT_STROKE_M,
-    ModulationTurns,
-    PivotTurns,
-    modulation_study,
-    pivot_study,
-    scan_phases,
-)
 
 MEANS = ("both", "modulation", "pivot")
 DEFAULT_DEPTHS = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9"

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from fishtail_swim.steering_map import ModulationTurns, PivotTurns
+from fishtail_pilot.steering_map import ModulationTurns, PivotTurns
 
 
 def _pyplot() -> Any:

@@ -1,0 +1,321 @@
+r"""The emulated ROSArduinoBridge firmware: parses commands, answers them, moves the motors.
+
+Pure (no pty, no threads): time is passed in explicitly (seconds, any epoch). The emulation follows
+the firmware's source (hbrobotics/ros_arduino_bridge ``ROSArduinoBridge.ino`` and
+``diff_controller.h``; ``o`` and the ``b`` reply without a leading space with
+``variant="joshnewans"``):
+
+- byte-by-byte command parsing: only CR runs a command; LF is an ordinary byte; the first space
+  starts argument 1, the second argument 2, later spaces are skipped; arguments go through a
+  16-bit ``atoi`` (``1.9`` -> 1, junk -> 0, 40000 -> -25536); argument buffers hold
+  ``arg_buffer_bytes`` - 1 characters (an overflow, undefined behaviour on the board, is cut off
+  and reported through ``warn``);
+- the speed loop is :class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` (the firmware's
+  ``diff_controller.h`` in AVR integer arithmetic) on the frame grid of
+  :class:`~fishtail_plant.motor.speed_loop.FrameTimer` (every ``1000 // PID_RATE`` ms): ``m``
+  targets are ticks per frame, taken over at the next frame; ``m 0 0`` writes PWM 0 at once and
+  resets and stops the loop; ``r`` zeroes the encoders and resets the loop (targets 0); ``o``
+  resets and stops it and writes the PWM; the auto-stop, strictly more than 2000 ms after the
+  last ``m``/``o``, writes PWM 0 and stops the loop without a reset, so that the next frame's
+  stopped-loop test resets it if a channel was moving; ``u`` sets the gains (four of them, Ko
+  not 0: anything else is refused, see :meth:`Firmware._update_gains`);
+- every PWM the board writes drives the channel's motor (:mod:`fishtail_boards.board_motors`:
+  ``ideal``, the first-order lag following the loop's target; ``first-order``, the lag driven by
+  the PWM; ``dc``, the DC gear motor at duty PWM / 255, turning ``load`` on both channels), and
+  the frames are recorded in :attr:`Firmware.frames`;
+- encoder counts are signed 32-bit and wrap (``encoder_offset`` starts them near the wrap).
+
+>>> board = Firmware(FirmwareConfig(), now=0.0)
+>>> [board.execute(command, 0.0) for command in map(board.feed_byte, b"b\r") if command]
+[b' 57600\r\n']
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+from collections.abc import Callable
+
+from fishtail_boards.board_motors import MOTOR_KINDS, make_motor
+from fishtail_driver.protocol import AUTO_STOP_INTERVAL_MS
+from fishtail_plant.motor.board_units import Scale, wrap_int16, wrap_int32
+from fishtail_plant.motor.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
+from fishtail_plant.motor.speed_loop import FirmwareSpeedLoop, FrameTimer, PidGains
+
+VARIANTS = ("hbrobotics", "joshnewans")
+_ATOI_SPACE = b" \t\n\v\f\r"
+
+
+def atoi16(text: bytes) -> int:
+    """avr-libc ``atoi``: optional leading white space and sign, digits; 16-bit wrap-around."""
+    index = 0
+    while index < len(text) and text[index] in _ATOI_SPACE:
+        index += 1
+    negative = False
+    if index < len(text) and text[index] in b"+-":
+        negative = text[index] == ord("-")
+        index += 1
+    value = 0
+    while index < len(text) and 0x30 <= text[index] <= 0x39:
+        value = (value * 10 + text[index] - 0x30) & 0xFFFF
+        index += 1
+    return wrap_int16(-value if negative else value)
+
+
+@dataclasses.dataclass
+class FirmwareConfig:
+    """What the emulated board is: its firmware's settings, its encoders and motors."""
+
+    baud: int = 57600
+    variant: str = "hbrobotics"
+    counts_per_revolution: int = 2048
+    gear_ratio: float = 1.0
+    pid_rate_hz: int = 30
+    time_constant_s: float = 0.05
+    max_speed_rad_s: float = 20.0
+    encoder_offset: int = 0
+    arg_buffer_bytes: int = 32
+    motor: str = "ideal"
+    #: What the motor of each channel turns (the DC motor model's load callables):
+    #: the tail, on both channels, so that the one a host drives turns it. ``motor`` dc only.
+    load: LoadTorque = zero_load
+    load_inertia: LoadInertia = zero_load_inertia
+
+    def __post_init__(self) -> None:
+        """Reject meaningless settings with the reason."""
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.motor not in MOTOR_KINDS:
+            raise ValueError(f"motor must be one of {MOTOR_KINDS}, got {self.motor!r}")
+        loaded = self.load is not zero_load or self.load_inertia is not zero_load_inertia
+        if loaded and self.motor != "dc":
+            raise ValueError(f"a load needs motor dc, got motor {self.motor!r} (it feels none)")
+        if self.baud < 1:
+            raise ValueError(f"baud must be >= 1, got {self.baud}")
+        if self.arg_buffer_bytes < 2:
+            raise ValueError(f"arg_buffer_bytes must be >= 2, got {self.arg_buffer_bytes}")
+        if self.encoder_offset != wrap_int32(self.encoder_offset):
+            raise ValueError(f"encoder_offset {self.encoder_offset} is not a 32-bit count")
+
+
+@dataclasses.dataclass
+class ParsedCommand:
+    """One CR-terminated command as the firmware's parser leaves it."""
+
+    cmd: int | None
+    argv1: bytes
+    argv2: bytes
+    raw: bytes
+
+    @property
+    def text(self) -> str:
+        """The raw line (without the CR), printable."""
+        return self.raw.decode("ascii", "backslashreplace").replace("\n", "\\n")
+
+
+class Firmware:
+    """The board's state machine, advanced by explicit time stamps (seconds, any epoch)."""
+
+    def __init__(
+        self, config: FirmwareConfig, now: float, warn: Callable[[str], None] = print
+    ) -> None:
+        """Power the board on at ``now`` with the motors at rest."""
+        self.config = config
+        self.scale = Scale(config.counts_per_revolution, config.gear_ratio, config.pid_rate_hz)
+        self.motors = [
+            make_motor(
+                config.motor,
+                self.scale,
+                config.time_constant_s,
+                config.max_speed_rad_s,
+                config.load,
+                config.load_inertia,
+            )
+            for _ in range(2)
+        ]
+        self.time = now
+        self._warn = warn
+        self.argument_overflows = 0
+        #: ``u`` commands refused (see :meth:`_update_gains`).
+        self.rejected_gains = 0
+        #: (board time, left, right) of every ``e`` answered: the truth a host's samples are
+        #: checked against (bounded: the newest readings only).
+        self.encoder_reads: collections.deque[tuple[float, int, int]] = collections.deque(
+            maxlen=100_000
+        )
+        #: (board time, (left, right) counts read, (left, right) PWM after it) of every PID
+        #: frame (bounded): what the loop saw and did.
+        self.frames: collections.deque[tuple[float, tuple[int, int], tuple[int, ...]]] = (
+            collections.deque(maxlen=100_000)
+        )
+        self.autostop_at: float | None = None
+        #: When the auto-stop fired (board clock), for tests: it must not while motion is wanted.
+        self.auto_stop_times: list[float] = []
+        self.timer = FrameTimer(self.scale.frame_ms, start_s=now)
+        self.offsets = [config.encoder_offset, config.encoder_offset]
+        self.loop = FirmwareSpeedLoop(self._counts())
+        self.power_on(now, counts=config.encoder_offset)
+
+    # --- state -----------------------------------------------------------------------------
+    def power_on(self, now: float, counts: int = 0) -> None:
+        """(Re)start the firmware: encoders read ``counts``, loop reset and stopped, PWM 0.
+
+        The motors keep their physical state (a reset does not stop a spinning shaft at once).
+        """
+        self.advance(now)
+        self.offsets = [counts - motor.encoder_counts() for motor in self.motors]
+        self.loop = FirmwareSpeedLoop(self._counts())
+        self._drive_motors()
+        self.autostop_at = None
+        self.timer.restart(now)
+        self._reset_parser()
+
+    def _reset_parser(self) -> None:
+        self._cmd: int | None = None
+        self._arg = 0
+        self._argv = [bytearray(), bytearray()]
+        self._raw = bytearray()
+
+    @property
+    def targets(self) -> list[int]:
+        """The loop's targets (ticks per frame), left and right."""
+        return [point.target_ticks_per_frame for point in self.loop.set_points]
+
+    @property
+    def moving(self) -> bool:
+        """Whether the speed loop runs (the firmware's ``moving``)."""
+        return self.loop.moving
+
+    @property
+    def gains(self) -> PidGains:
+        """The loop's gains in force."""
+        return self.loop.gains
+
+    def encoder(self, channel: int) -> int:
+        """The board's counter (signed 32-bit) for channel 0 (left) or 1 (right)."""
+        return wrap_int32(self.motors[channel].encoder_counts() + self.offsets[channel])
+
+    def _counts(self) -> tuple[int, int]:
+        return self.encoder(0), self.encoder(1)
+
+    def _drive_motors(self) -> None:
+        """Hand the motors what ``setMotorSpeeds()`` last wrote (called wherever it writes)."""
+        for motor, pwm, target in zip(self.motors, self.loop.pwm, self.targets, strict=True):
+            motor.drive(pwm, target, self.loop.moving)
+
+    def advance(self, now: float) -> None:
+        """Run PID frames and the auto-stop check up to ``now``.
+
+        At the same millisecond the frame comes first: the firmware's main loop runs
+        ``updatePID()`` before the auto-stop test.
+        """
+        while True:
+            frame_at = self.timer.next_s
+            stop_at = self.autostop_at
+            if stop_at is not None and stop_at < frame_at and stop_at <= now:
+                self._move_to(stop_at)
+                self.auto_stop_times.append(stop_at)
+                self.autostop_at = None
+                self.loop.auto_stop()
+                self._drive_motors()
+                continue
+            if frame_at > now:
+                break
+            for when in self.timer.due(frame_at):
+                self._move_to(when)
+                counts = self._counts()
+                self.frames.append((when, counts, self.loop.frame(counts)))
+                self._drive_motors()
+        self._move_to(now)
+
+    def _move_to(self, when: float) -> None:
+        if when > self.time:
+            for motor in self.motors:
+                motor.advance(when - self.time)
+            self.time = when
+
+    # --- parsing -----------------------------------------------------------------------------
+    def feed_byte(self, byte: int) -> ParsedCommand | None:
+        """One received byte; returns the parsed command when it is a CR."""
+        if byte == 13:
+            parsed = ParsedCommand(
+                self._cmd, bytes(self._argv[0]), bytes(self._argv[1]), bytes(self._raw)
+            )
+            self._reset_parser()
+            return parsed
+        self._raw.append(byte)
+        if byte == 0x20:
+            if self._arg < 2:
+                self._arg += 1
+            return None
+        if self._arg == 0:
+            self._cmd = byte
+        else:
+            buffer = self._argv[self._arg - 1]
+            if len(buffer) < self.config.arg_buffer_bytes - 1:
+                buffer.append(byte)
+            else:
+                self.argument_overflows += 1
+                self._warn(
+                    f"argument {self._arg} longer than {self.config.arg_buffer_bytes - 1} "
+                    "characters: buffer overflow (undefined behaviour on the board), cut off"
+                )
+        return None
+
+    # --- commands ----------------------------------------------------------------------------
+    def execute(self, command: ParsedCommand, now: float) -> bytes:
+        """Run a parsed command at ``now``; returns the reply bytes (CR LF terminated)."""
+        self.advance(now)
+        arg1, arg2 = atoi16(command.argv1), atoi16(command.argv2)
+        cmd = chr(command.cmd) if command.cmd is not None else ""
+        auto_stop_s = AUTO_STOP_INTERVAL_MS / 1000.0 + 0.001  # strictly more than 2000 ms
+        if cmd == "b":
+            prefix = " " if self.config.variant == "hbrobotics" else ""
+            return f"{prefix}{self.config.baud}\r\n".encode("ascii")
+        if cmd == "e":
+            left, right = self._counts()
+            self.encoder_reads.append((now, left, right))
+            return f"{left} {right}\r\n".encode("ascii")
+        if cmd == "r":
+            self.offsets = [-motor.encoder_counts() for motor in self.motors]
+            self.loop.reset_encoders()
+            return b"OK\r\n"
+        if cmd == "m":
+            self.autostop_at = now + auto_stop_s
+            self.loop.command((arg1, arg2), self._counts())
+            if not self.loop.moving:  # m 0 0 wrote PWM 0; other targets wait for the frame
+                self._drive_motors()
+            return b"OK\r\n"
+        if cmd == "o" and self.config.variant == "joshnewans":
+            self.autostop_at = now + auto_stop_s
+            self.loop.raw_pwm((arg1, arg2), self._counts())
+            self._drive_motors()
+            return b"OK\r\n"
+        if cmd == "u":
+            return self._update_gains(command.argv1)
+        return b"Invalid Command\r\n"
+
+    def _update_gains(self, argument: bytes) -> bytes:
+        """``u Kp:Kd:Ki:Ko``: exactly four gains, Ko not 0; anything else is refused.
+
+        The firmware splits the argument at colons (``strtok_r``: empty fields vanish) into a local
+        ``int pid_args[4]`` and answers ``OK`` whatever it got: fewer than four gains leave the
+        rest uninitialised stack bytes, more overflow the array, and Ko 0 divides by zero at every
+        frame (no trap on the AVR: a garbage PWM). Emulating garbage would hide the host's mistake
+        behind an ``OK``, so the emulation keeps the gains, reports the reason through ``warn``
+        and answers ``Invalid Command`` instead: a host sending such gains is wrong on any board.
+        """
+        tokens = [token for token in argument.split(b":") if token]
+        reason = None
+        if len(tokens) != 4:
+            reason = f"{len(tokens)} gains instead of Kp:Kd:Ki:Ko (pid_args[4] on the board)"
+        else:
+            kp, kd, ki, ko = (atoi16(token) for token in tokens)
+            if ko == 0:
+                reason = "Ko 0 (the board would divide by zero at every PID frame)"
+            else:
+                self.loop.set_gains(PidGains(kp, kd, ki, ko))
+                return b"OK\r\n"
+        self.rejected_gains += 1
+        self._warn(f"u {argument.decode('ascii', 'backslashreplace')} refused: {reason}")
+        return b"Invalid Command\r\n"

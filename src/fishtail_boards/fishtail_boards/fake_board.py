@@ -1,0 +1,167 @@
+"""An emulated ROSArduinoBridge motor board on a pseudo-terminal: ``fishtail-fake-board``.
+
+It prints the pty's device path on stdout (one line, again after every emulated replug) and, with
+``--link PATH``, keeps a symlink at PATH pointing at the current pty (replaced atomically; removed
+on exit and while "unplugged"), so a host can be configured with a stable port name, as with
+``/dev/serial/by-id`` on real hardware.
+
+The firmware's behaviour (parsing quirks, PID frames, auto-stop, wrapping counts) is
+:mod:`fishtail_boards.board_firmware`'s; the pty and the faults are
+:mod:`fishtail_boards.board_pty`'s. ``--variant joshnewans`` answers ``b`` without a leading space
+and knows ``o``; ``--motor`` chooses what the firmware's PWM drives
+(:mod:`fishtail_boards.board_motors`: ``ideal``, the default, ``first-order`` or ``dc``, the DC
+gear motor as the simulated backend runs it; with ``--counts-per-rev 64 --gear-ratio 30`` it is
+the Pololu 37D 30:1 with its encoder); with ``--motor dc``, ``--load`` makes each channel's motor
+turn the tail (:mod:`fishtail_plant.values`: ``air``, ``water_held``, ``water_swimming``, the
+driver's ``motor_load``) of ``--config`` (default config/oscillatory.yaml) and ``--fish``
+(default config/fish.yaml), so that the serial path sees the ripple the simulated backend's
+loaded motor has; an argument longer than ``--arg-buffer`` - 1 characters is reported on stderr.
+
+Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply (a slow board; from
+``--delay-after-s`` on only, and SIGUSR2 switches the delay off and on again, so that a host can
+connect to a board that turns slow later), ``--drop-rate`` loses a command or its reply,
+``--garble-rate`` corrupts a reply (a flipped byte, a truncated line, a binary line, an oversized
+line) or the command letter (the board answers ``Invalid Command``),
+``--reset-after-s`` resets the board once (counts back to 0, silent for ``--boot-ms``), and so
+does every SIGUSR1 (a reset when the caller chooses, e.g. once the motor turns),
+``--disconnect-after-s`` unplugs the pty once for ``--disconnect-for-s`` and then plugs in a new
+one (a replug power-cycles the board). ``--pace-baud`` delays every byte by its line time at
+``--baud`` (10 bits per byte) in both directions, because a pty otherwise transfers at memory speed
+whatever the baud rate. ``--log FILE`` appends every command the board runs (one line each, time
+in seconds since start) and the injected events.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+from fishtail_boards.board_firmware import VARIANTS
+from fishtail_boards.board_motors import MOTOR_KINDS
+from fishtail_boards.board_pty import BoardConfig, FakeBoard
+from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
+from fishtail_plant.motor.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
+from fishtail_plant.values import tail_load_from_files
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fishtail-fake-board",
+        description="Emulated ROSArduinoBridge motor board on a pty (prints the device path).",
+        epilog="Signals: SIGUSR1 resets the board (counts back to 0, deaf for --boot-ms); "
+        "SIGUSR2 switches the reply delay of --delay-ms off and on again; "
+        "SIGINT, SIGTERM and SIGHUP end it.",
+    )
+    add = parser.add_argument
+    add("--link", help="keep a symlink to the current pty at this path (removed on exit)")
+    add("--log", help="append every command the board runs to this file")
+    add("--baud", type=int, default=57600, help="what 'b' answers; line rate for --pace-baud")
+    add("--pace-baud", action="store_true", help="delay each byte by 10 bits at --baud")
+    add(
+        "--variant",
+        choices=VARIANTS,
+        default="hbrobotics",
+        help="hbrobotics: 'b' -> ' 57600', no 'o'; joshnewans: 'b' -> '57600', 'o' raw PWM",
+    )
+    add(
+        "--motor",
+        choices=MOTOR_KINDS,
+        default="ideal",
+        help="ideal: first-order lag at the loop's target; first-order: the lag driven by the "
+        "PWM; dc: DC gear motor (Pololu 37D, --gear-ratio) at duty PWM/255",
+    )
+    add(
+        "--load",
+        choices=SURROUNDINGS,
+        default=NO_LOAD,
+        help="with --motor dc: what each motor turns: the tail of --config in air, in water held "
+        "at rest, or towed at its swimming speed (the fish of --fish)",
+    )
+    add("--config", type=Path, help="--load's tail and link masses (config/oscillatory.yaml)")
+    add("--fish", type=Path, help="--load's fish (config/fish.yaml)")
+    add("--counts-per-rev", type=int, default=2048, help="encoder counts per motor turn")
+    add("--gear-ratio", type=float, default=1.0, help="motor turns per carrier turn")
+    add("--pid-rate", type=int, default=30, help="the firmware's PID_RATE [Hz]")
+    add("--time-constant", type=float, default=0.05, help="motor speed time constant [s]")
+    add("--max-speed", type=float, default=20.0, help="carrier speed limit [rad/s]")
+    add("--encoder-offset", type=int, default=0, help="initial encoder count (test the wrap)")
+    add("--arg-buffer", type=int, default=32, help="firmware argument buffer size [bytes]")
+    add("--boot-ms", type=float, default=0.0, help="input ignored this long after power-up")
+    add("--delay-ms", type=float, default=0.0, help="delay every reply (a slow board)")
+    add(
+        "--delay-after-s",
+        type=float,
+        default=None,
+        help="answer at once until this long after start, then delay replies by --delay-ms",
+    )
+    add("--drop-rate", type=float, default=0.0, help="probability of losing a command/reply")
+    add("--garble-rate", type=float, default=0.0, help="probability of corrupting an exchange")
+    add("--reset-after-s", type=float, default=None, help="reset the board once, after this")
+    add("--disconnect-after-s", type=float, default=None, help="unplug once, after this")
+    add("--disconnect-for-s", type=float, default=1.0, help="how long an unplug lasts")
+    add("--seed", type=int, default=0, help="seed of the fault injection")
+    return parser  # fmt: skip
+
+
+def _load(args: argparse.Namespace) -> tuple[LoadTorque, LoadInertia]:
+    """The load callables that ``--load``, ``--config`` and ``--fish`` describe (ValueError)."""
+    if args.load == NO_LOAD:
+        if args.config is not None or args.fish is not None:
+            raise ValueError("--config and --fish describe the tail of --load: give --load too")
+        return zero_load, zero_load_inertia
+    if args.motor != "dc":
+        raise ValueError(f"--load {args.load} needs --motor dc (the {args.motor} motor feels none)")
+    tail = tail_load_from_files(args.load, args.config, args.fish)
+    return tail.torque, tail.inertia
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``fishtail-fake-board``."""
+    args = _parser().parse_args(argv)
+    try:
+        load, load_inertia = _load(args)
+        config = BoardConfig(
+            baud=args.baud,
+            pace_baud=args.pace_baud,
+            variant=args.variant,
+            counts_per_revolution=args.counts_per_rev,
+            gear_ratio=args.gear_ratio,
+            motor=args.motor,
+            load=load,
+            load_inertia=load_inertia,
+            pid_rate_hz=args.pid_rate,
+            time_constant_s=args.time_constant,
+            max_speed_rad_s=args.max_speed,
+            encoder_offset=args.encoder_offset,
+            arg_buffer_bytes=args.arg_buffer,
+            boot_ms=args.boot_ms,
+            delay_ms=args.delay_ms,
+            delay_after_s=args.delay_after_s,
+            drop_rate=args.drop_rate,
+            garble_rate=args.garble_rate,
+            reset_after_s=args.reset_after_s,
+            disconnect_after_s=args.disconnect_after_s,
+            disconnect_for_s=args.disconnect_for_s,
+            seed=args.seed,
+        )
+        board = FakeBoard(config, link=args.link, log_path=args.log)
+    except (ValueError, OSError) as error:
+        print(f"fishtail-fake-board: error: {error}", file=sys.stderr)
+        return 2
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, lambda *_: board.stop())
+    signal.signal(signal.SIGUSR1, lambda *_: board.request_reset())
+    signal.signal(signal.SIGUSR2, lambda *_: board.request_slow_toggle())
+    try:
+        board.run()
+    except BrokenPipeError:
+        pass
+    finally:
+        board.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

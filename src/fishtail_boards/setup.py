@@ -1,0 +1,28 @@
+"""Build script of the fishtail_boards ament_python package (built by colcon)."""
+
+from setuptools import find_packages, setup
+
+PACKAGE = "fishtail_boards"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="fishtail maintainers",
+    maintainer_email="fishtail@example.com",
+    description="Emulated ROSArduinoBridge motor boards and the real firmware in simavr.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "fishtail-fake-board = fishtail_boards.fake_board:main",
+            "fishtail-avr-board = fishtail_boards.avr_board:main",
+        ],
+    },
+)

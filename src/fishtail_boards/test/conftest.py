@@ -1,0 +1,382 @@
+"""Fixtures of the board tests: emulated boards, backends, node processes, a ROS probe.
+
+* ``fake_board(**config)``: an emulated board (:class:`fishtail_boards.board_pty.FakeBoard`) on
+  a real pty, served by a thread of this process, with a symlink in tmp_path; stopped at teardown.
+* ``board_process(link, *args)``: ``python -m fishtail_boards.fake_board`` as a process (what
+  ``fishtail-fake-board`` runs), its pty path read from its stdout; killed at teardown.
+* ``serial_backend(port, opener=None, **config)``: a started :class:`SerialBackend`; closed at
+  teardown.
+* ``firmware_build``: the real firmware and its simulator (``make firmware``, run by set-up);
+  skips with one line where the AVR toolchain or simavr is missing.
+* ``either_board(encoder_offset=0)``: parametrised over the two boards, ``fake`` (the project's
+  emulation, a DC motor) and ``firmware`` (ROSArduinoBridge in simavr, the same DC motor), both
+  the Pololu 37D 30:1 with its 64-count encoder: a :class:`BoardUnderTest` (link, reset, the board's
+  own clock).
+* ``raw_port(path)``: the board's serial port in raw mode, one command and its reply at a time.
+* ``wait_until``, ``driver_run``, ``ros_probe``: :mod:`fishtail_testkit.driver_nodes`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import queue
+import select
+import signal
+import subprocess
+import sys
+import threading
+import time
+import tty
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from fishtail_boards.avr_board import (
+    SimulatedBoard,
+    built_artifacts,
+    encoder_offset_pokes,
+    firmware_variables,
+)
+from fishtail_boards.board_motors import DcChannelMotor
+from fishtail_boards.board_pty import BoardConfig, FakeBoard
+from fishtail_driver.serial_backend import SerialBackend
+from fishtail_driver.serial_config import SerialConfig
+from fishtail_plant.motor.board_units import Scale
+from fishtail_testkit.driver_nodes import (  # noqa: F401 - fixtures, registered by name
+    driver_process,
+    driver_run,
+    ros,
+    ros_domain,
+    ros_probe,
+    wait_until,
+)
+
+POLL_S = 0.005
+
+
+class BoardHandle:
+    """An in-process FakeBoard served by a thread."""
+
+    def __init__(self, board: FakeBoard, link: Path) -> None:
+        """Start serving ``board``."""
+        self.board = board
+        self.link = link
+        self.paths: list[str] = []
+        self.thread = threading.Thread(target=board.run, name="fake-board", daemon=True)
+
+    def commands(self, prefix: str = "") -> list[str]:
+        """Commands the board ran so far (text, without the CR) starting with ``prefix``."""
+        return [text for _, text in list(self.board.commands) if text.startswith(prefix)]
+
+    def stop(self) -> None:
+        """Stop the loop and release everything."""
+        self.board.stop()
+        self.thread.join(5.0)
+        self.board.close()
+
+
+@pytest.fixture
+def fake_board(tmp_path) -> Callable[..., BoardHandle]:
+    """Start emulated boards: ``fake_board(link=None, log=None, **BoardConfig fields)``."""
+    handles: list[BoardHandle] = []
+
+    def start(link: Path | None = None, log: Path | None = None, **config) -> BoardHandle:
+        link = link or tmp_path / f"board{len(handles)}"
+        holder: list[BoardHandle] = []
+        announced = threading.Event()
+
+        def announce(path: str) -> None:
+            holder[0].paths.append(path)
+            announced.set()
+
+        board = FakeBoard(
+            BoardConfig(**config), link=str(link), log_path=str(log) if log else None,
+            announce=announce,
+        )  # fmt: skip
+        handle = BoardHandle(board, link)
+        holder.append(handle)
+        handles.append(handle)
+        handle.thread.start()
+        assert announced.wait(5.0), "the fake board did not open its pty"
+        return handle
+
+    yield start
+    for handle in handles:
+        handle.stop()
+
+
+class BoardProcess:
+    """``python -m fishtail_boards.fake_board ...`` with its stdout lines collected."""
+
+    def __init__(self, argv: list[str], stderr_path: Path) -> None:
+        """Start it and a thread that reads its stdout (the pty paths it announces)."""
+        self.argv = argv
+        self.stderr_path = stderr_path
+        self.lines: queue.Queue[str] = queue.Queue()
+        with open(stderr_path, "wb") as err:
+            self.popen = subprocess.Popen(
+                argv, env=dict(os.environ), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                stderr=err, text=True, start_new_session=True,
+            )  # fmt: skip
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        for line in self.popen.stdout:
+            self.lines.put(line.strip())
+
+    def next_path(self, timeout: float = 10.0) -> str:
+        """The next pty path it prints."""
+        try:
+            return self.lines.get(timeout=timeout)
+        except queue.Empty:
+            pytest.fail(
+                f"fake board printed no path within {timeout} s: "
+                f"{self.stderr_path.read_text(errors='replace')}"
+            )
+
+    def kill(self, signum: int = signal.SIGKILL) -> None:
+        """Signal it and wait for it to end."""
+        if self.popen.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self.popen.pid, signum)
+            self.popen.wait(5.0)
+
+
+@pytest.fixture
+def board_process(tmp_path) -> Callable[..., BoardProcess]:
+    """Start ``fishtail-fake-board`` processes: ``board_process(link, *extra_args, log=None)``."""
+    processes: list[BoardProcess] = []
+
+    def start(link: Path, *args: str, log: Path | None = None) -> BoardProcess:
+        argv = [sys.executable, "-m", "fishtail_boards.fake_board", "--link", str(link), *args]
+        if log is not None:
+            argv += ["--log", str(log)]
+        process = BoardProcess(argv, tmp_path / f"fake_board{len(processes)}.stderr")
+        processes.append(process)
+        return process
+
+    yield start
+    for process in processes:
+        process.kill(signal.SIGTERM)
+
+
+@pytest.fixture
+def serial_backend() -> Callable[..., SerialBackend]:
+    """Start backends: ``serial_backend(port, opener=None, **SerialConfig)``; closed at teardown."""
+    backends: list[SerialBackend] = []
+
+    def make(port: Path | str, opener=None, **config) -> SerialBackend:
+        backend = SerialBackend(SerialConfig(port=str(port), **config), opener=opener)
+        backends.append(backend)
+        backend.start()
+        return backend
+
+    yield make
+    for backend in backends:
+        backend.close()
+
+
+# --------------------------------------------------------------------------------------------
+# Two boards: the fake board and the real firmware in simavr
+
+ROOT = Path(__file__).resolve().parents[3]
+#: The Pololu 37D 30:1 with its 64-count encoder, on both boards.
+POLOLU = {"counts_per_revolution": 64, "gear_ratio": 30.0}
+
+
+@pytest.fixture(scope="session")
+def firmware_build() -> Path:
+    """build/firmware with the firmware ELF and the simulator, built now; skip without toolchain."""
+    build = subprocess.run(
+        [str(ROOT / "firmware" / "build.sh")], capture_output=True, text=True, check=False
+    )
+    if build.returncode in (2, 3):  # no toolchain / no sketch: the reason is the first line
+        reason = (build.stderr.strip().splitlines() or ["no output"])[0]
+        pytest.skip(f"firmware in simavr: {reason}")
+    assert build.returncode == 0, f"make firmware failed:\n{build.stdout}{build.stderr}"
+    folder = ROOT / "build" / "firmware"
+    assert built_artifacts(folder) is not None, "make firmware left no ELF or simulator"
+    return folder
+
+
+class BoardUnderTest:
+    """A board under test on a pty at :attr:`link`, whichever it is.
+
+    :meth:`clock_at` is the board's own clock at a host ``time.monotonic()``: durations the
+    firmware keeps (PID frames, auto-stop) and speeds are measured on it, so that no assertion
+    depends on whether the host kept a simulator at wall-clock pace.
+    """
+
+    kind = ""
+    link: Path
+
+    def clock_at(self, host_s: float) -> float:
+        """The board's time [s] at host time ``host_s``."""
+        raise NotImplementedError
+
+    def clock(self) -> float:
+        """The board's time now [s]."""
+        return self.clock_at(time.monotonic())
+
+    def reset(self) -> None:
+        """Reset the board, as DTR does."""
+        raise NotImplementedError
+
+    def unplug(self) -> None:
+        """Pull the USB cable: the port and the link vanish."""
+        raise NotImplementedError
+
+    def replug(self) -> None:
+        """Plug it back in: a new port at the link, the board power-cycled."""
+        raise NotImplementedError
+
+    def stop(self) -> None:
+        """End it."""
+        raise NotImplementedError
+
+
+class FakeUnderTest(BoardUnderTest):
+    """The project's emulation (in-process FakeBoard, the DC motor); its clock is the host's."""
+
+    kind = "fake"
+
+    def __init__(self, handle: BoardHandle) -> None:
+        """Wrap a started fake board."""
+        self.handle = handle
+        self.link = handle.link
+
+    def clock_at(self, host_s: float) -> float:
+        """The host's clock."""
+        return host_s
+
+    def reset(self) -> None:
+        """The fake board's reset switch (SIGUSR1 of fishtail-fake-board)."""
+        self.handle.board.request_reset()
+
+    def unplug(self) -> None:
+        """The fake board's unplug switch."""
+        self.handle.board.unplug()
+
+    def replug(self) -> None:
+        """The fake board's replug switch (a power cycle)."""
+        self.handle.board.replug()
+
+    def stop(self) -> None:
+        """Stopped by the fake_board fixture."""
+
+
+class FirmwareUnderTest(BoardUnderTest):
+    """ROSArduinoBridge in simavr with the DC motors; its clock is the simulated one."""
+
+    kind = "firmware"
+
+    def __init__(self, board: SimulatedBoard) -> None:
+        """Wrap a started simulator."""
+        self.board = board
+        self.link = board.link
+
+    def clock_at(self, host_s: float) -> float:
+        """The simulated time at that host time."""
+        return self.board.simulated_at(host_s)
+
+    def reset(self) -> None:
+        """SIGUSR1 to the simulator: the ATmega resets."""
+        self.board.reset()
+
+    def unplug(self) -> None:
+        """Pull the simulated USB cable (:class:`fishtail_boards.usb_cable.UsbCable`)."""
+        self.board.unplug()
+
+    def replug(self) -> None:
+        """Plug it back in; the ATmega resets as USB power returns."""
+        self.board.replug()
+
+    def stop(self) -> None:
+        """End the simulator."""
+        self.board.stop()
+
+
+def _dc_motors(count: int) -> list[DcChannelMotor]:
+    from fishtail_plant.motor.dc_motor import DcMotorParameters
+
+    scale = Scale(POLOLU["counts_per_revolution"], POLOLU["gear_ratio"])
+    parameters = dataclasses.replace(DcMotorParameters(), gear_ratio=scale.gear_ratio)
+    return [DcChannelMotor(parameters, scale) for _ in range(count)]
+
+
+@pytest.fixture(params=["fake", "firmware"])
+def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]:
+    """``either_board(encoder_offset=0)``: the fake board, or the real firmware in simavr."""
+    started: list[BoardUnderTest] = []
+
+    def start(encoder_offset: int = 0) -> BoardUnderTest:
+        link = tmp_path / f"either{len(started)}"
+        board: BoardUnderTest
+        if request.param == "fake":
+            handle = fake_board(link=link, variant="joshnewans", motor="dc",
+                                encoder_offset=encoder_offset, **POLOLU)  # fmt: skip
+            board = FakeUnderTest(handle)
+        else:
+            folder = request.getfixturevalue("firmware_build")
+            extra = encoder_offset_pokes(firmware_variables(folder), encoder_offset)
+            with open(tmp_path / f"either{len(started)}.stderr", "wb") as stderr:
+                simulated = SimulatedBoard(
+                    _dc_motors(2), link, folder, extra, stderr=stderr, cable=True
+                )
+            board = FirmwareUnderTest(simulated)
+            assert simulated.ready.wait(10.0), "the simulator did not start"
+        started.append(board)
+        return board
+
+    yield start
+    for board in started:
+        board.stop()
+
+
+class RawPort:
+    """The board's serial port in raw mode, one command and its reply line at a time."""
+
+    def __init__(self, path: Path) -> None:
+        """Open ``path`` (it must exist)."""
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd)
+
+    def ask(self, command: str, timeout_s: float = 5.0) -> str:
+        """Send ``command`` with its CR; the reply line without CR LF."""
+        os.write(self.fd, command.encode("ascii") + b"\r")
+        reply, deadline = b"", time.monotonic() + timeout_s
+        while not reply.endswith(b"\r\n"):
+            left = deadline - time.monotonic()
+            assert left > 0, f"no reply to {command!r} (got {reply!r})"
+            if select.select([self.fd], [], [], left)[0]:
+                reply += os.read(self.fd, 256)
+        return reply.decode("ascii").strip()
+
+    def counts(self) -> tuple[int, int]:
+        """The encoder counts (``e``)."""
+        left, right = self.ask("e").split()
+        return int(left), int(right)
+
+    def close(self) -> None:
+        """Close the port."""
+        os.close(self.fd)
+
+
+@pytest.fixture
+def raw_port() -> Callable[[Path], RawPort]:
+    """``raw_port(path)``: a :class:`RawPort`; closed at teardown."""
+    opened: list[RawPort] = []
+
+    def open_port(path: Path) -> RawPort:
+        opened.append(RawPort(path))
+        return opened[-1]
+
+    yield open_port
+    for port in opened:
+        port.close()
+
+

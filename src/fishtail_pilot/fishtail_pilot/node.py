@@ -1,0 +1,291 @@
+"""Pilot node: ``cmd_vel`` and ``goal_pose`` in, carrier speed profile and pivot position out.
+
+Topics (relative names):
+  sub ``cmd_vel``             geometry_msgs/Twist: linear.x forward speed m/s (>= 0), angular.z
+                              yaw rate rad/s (positive turns left, REP 103); the other components
+                              are ignored (a fish cannot swim sideways or backwards)
+  sub ``goal_pose``           geometry_msgs/PoseStamped in ``world`` (RViz's 2D Goal Pose tool):
+                              swim to its position; its orientation is ignored
+  sub ``fish/odom``           nav_msgs/Odometry, sensor-data QoS: the fish's pose and speed
+  pub ``motor/cmd_profile``   fishtail_msgs/CarrierSpeedProfile: the driver's carrier command, at
+                              ``control_rate_hz`` while moving, once when stopping
+  pub ``pivot/cmd_position``  std_msgs/Float64, m: only with ``steering: pivot``
+  pub ``/diagnostics``        mode, commanded and measured speed, heading, distance to the goal;
+                              WARN when a command is beyond what the fish can do (with the
+                              achievable value), ERROR when odometry stops while moving
+
+The control law is :class:`fishtail_pilot.pilot.Pilot`; the steering means and its map from the
+tail and fish parameters (the same parameter files as the simulator's) are built at start-up by
+:func:`fishtail_pilot.steering.steering_from_values`. The watchdog stops the carrier when no
+``cmd_vel`` arrives for ``cmd_timeout_sec`` (a goal needs no repeating); a new ``cmd_vel`` cancels
+a goal. Without odometry for ``odom_timeout_sec`` the carrier stops until it is back (ERROR on
+/diagnostics meanwhile); the command or goal stands. The pivot keeps its position when the
+carrier stops.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.msg import Odometry
+from std_msgs.msg import Float64
+
+from fishtail_common.interface import (
+    CMD_VEL,
+    DIAGNOSTICS,
+    FISH_ODOM,
+    GOAL_POSE,
+    MOTOR_CMD_PROFILE,
+    PIVOT_CMD_POSITION,
+    WORLD_FRAME,
+    Level,
+    Status,
+)
+from fishtail_common.parameters import ParameterSpec, read_only
+from fishtail_common.ros import (
+    NodeFactory,
+    SuiteNodeBase,
+    declare,
+    diagnostic_array,
+    qos_profile,
+    run_node,
+)
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from fishtail_kinematics.engine.errors import FishtailKinematicsError
+from fishtail_msgs.msg import CarrierSpeedProfile as ProfileMessage
+from fishtail_pilot.pilot import CONTROL_PARAMETERS, Mode, Pilot, PilotCommand, PilotSettings
+from fishtail_pilot.steering import STEERING_PARAMETERS, steering_from_values
+from fishtail_plant.errors import SwimError
+from fishtail_plant.fish.fish import FISH_PARAMETERS
+from fishtail_plant.values import TAIL_PARAMETERS, fish_from_values, tail_from_values
+
+DIAGNOSTICS_PERIOD_S = 1.0
+STOPPED = CarrierSpeedProfile(0.0)
+CMD_TIMEOUT = ParameterSpec(
+    "cmd_timeout_sec", 0.5,
+    "stop the carrier when no cmd_vel arrives for this long (0: never; goals need no repeating)",
+    "s", 0.0, 60.0,
+)  # fmt: skip
+ODOM_TIMEOUT = ParameterSpec(
+    "odom_timeout_sec", 1.0, "stop the carrier when fish/odom stops for this long", "s", 0.05, 60.0
+)
+CONTROL_RATE = ParameterSpec(
+    "control_rate_hz", 20.0, "how often the carrier command is sent while moving", "Hz", 1.0, 200.0
+)
+
+
+#: Every parameter of the node; the fish, the tail and the steering are fixed for its run.
+PARAMETERS: tuple[ParameterSpec, ...] = (
+    *read_only((*TAIL_PARAMETERS, *FISH_PARAMETERS, *STEERING_PARAMETERS)),
+    *read_only(CONTROL_PARAMETERS),
+    CMD_TIMEOUT,
+    ODOM_TIMEOUT,
+    CONTROL_RATE,
+)
+
+
+class PilotNode(SuiteNodeBase):
+    """Thin shell around :class:`Pilot`."""
+
+    def __init__(self, **node_options: Any) -> None:
+        """Declare parameters, build the steering map (a few seconds), wire the topics."""
+        super().__init__("pilot", **node_options)
+        values = declare(self, PARAMETERS)
+        tail = tail_from_values(values)
+        fish = fish_from_values(values)
+        steering, speed_per_beat_m = steering_from_values(values, tail, fish)
+        settings = PilotSettings(
+            speed_per_beat_m=speed_per_beat_m,
+            **{spec.name: float(values[spec.name]) for spec in CONTROL_PARAMETERS},
+        )
+        self.pilot = Pilot(settings, steering)
+        self.cmd_timeout_ns = round(float(values[CMD_TIMEOUT.name]) * 1e9)
+        self.odom_timeout_ns = round(float(values[ODOM_TIMEOUT.name]) * 1e9)
+        self.control_period_ns = round(1e9 / float(values[CONTROL_RATE.name]))
+        self.last_cmd_ns: int | None = None
+        self.last_odom_ns: int | None = None
+        self.last_sent_ns: int | None = None
+        self.sent: PilotCommand | None = None
+        self.refusals: list[str] = []
+        self.odometry_lost = False
+        self.profile_message = ProfileMessage()
+        self.pivot_message = Float64()
+
+        self.profile_publisher = self.create_publisher(
+            ProfileMessage, MOTOR_CMD_PROFILE.name, qos_profile(MOTOR_CMD_PROFILE)
+        )
+        self.pivot_publisher = (
+            self.create_publisher(Float64, PIVOT_CMD_POSITION.name, qos_profile(PIVOT_CMD_POSITION))
+            if steering.command(0.0).pivot_shift_m is not None
+            else None
+        )
+        self.diagnostics_publisher = self.create_publisher(
+            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+        )
+        self.create_subscription(Twist, CMD_VEL.name, self._on_cmd_vel, qos_profile(CMD_VEL))
+        self.create_subscription(PoseStamped, GOAL_POSE.name, self._on_goal, qos_profile(GOAL_POSE))
+        self.create_subscription(Odometry, FISH_ODOM.name, self._on_odom, qos_profile(FISH_ODOM))
+        self.create_timer(0.05, self._on_watchdog)
+        self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
+        low, high = steering.yaw_per_beat_range_rad
+        self.get_logger().info(
+            f"pilot up: {steering.name} steering, {speed_per_beat_m:.4g} m per beat, yaw per beat "
+            f"{low:.4g} to {high:.4g} rad (tightest turn: radius "
+            f"{self.pilot.min_turning_radius_m(1.0):.3g} m left, "
+            f"{self.pilot.min_turning_radius_m(-1.0):.3g} m right)"
+        )
+
+    def _now_ns(self) -> int:
+        return int(self.get_clock().now().nanoseconds)
+
+    def _refuse(self, reason: str) -> None:
+        self.refusals.append(reason)
+        self.get_logger().warning(reason, throttle_duration_sec=2.0)
+
+    def _on_cmd_vel(self, message: Twist) -> None:
+        reason = self.pilot.set_velocity(float(message.linear.x), float(message.angular.z))
+        if reason is not None:
+            self._refuse(reason)
+            return
+        self.last_cmd_ns = self._now_ns()
+
+    def _on_goal(self, message: PoseStamped) -> None:
+        frame = message.header.frame_id
+        if frame not in ("", WORLD_FRAME):
+            self._refuse(f"goal_pose in frame {frame!r} refused: goals are in {WORLD_FRAME!r}")
+            return
+        position = message.pose.position
+        reason = self.pilot.set_goal(float(position.x), float(position.y))
+        if reason is not None:
+            self._refuse(reason)
+            return
+        self.get_logger().info(
+            f"goal ({position.x:.3f}, {position.y:.3f}) m: "
+            f"{self.pilot.distance_to_goal_m():.3f} m to go"
+        )
+
+    def _on_odom(self, message: Odometry) -> None:
+        now_ns = self._now_ns()
+        self.last_odom_ns = now_ns
+        if self.odometry_lost:
+            self.odometry_lost = False
+            self.get_logger().info(f"{FISH_ODOM.name} is back: {self.pilot.mode.value} resumed")
+        stamp = message.header.stamp
+        pose = message.pose.pose
+        orientation = pose.orientation
+        yaw = 2.0 * math.atan2(orientation.z, orientation.w)
+        was_goal = self.pilot.mode is Mode.GOAL
+        command = self.pilot.observe(
+            stamp.sec + stamp.nanosec * 1e-9,
+            pose.position.x,
+            pose.position.y,
+            yaw,
+            message.twist.twist.linear.x,
+            message.twist.twist.angular.z,
+        )
+        if was_goal and self.pilot.goal_reached:
+            self.get_logger().info(
+                f"goal reached: fish at ({pose.position.x:.3f}, {pose.position.y:.3f}) m"
+            )
+        self._send(command, now_ns)
+
+    def _send(self, command: PilotCommand, now_ns: int, force: bool = False) -> None:
+        due = self.last_sent_ns is None or now_ns - self.last_sent_ns >= self.control_period_ns
+        # A new stop goes out at once; anything else at the control rate.
+        stopping = command.carrier.mean_speed_rad_s == 0.0 and command != self.sent
+        if not (force or due or stopping):
+            return
+        profile = command.carrier
+        message = self.profile_message
+        message.mean_speed = profile.mean_speed_rad_s
+        message.modulation_depth = profile.depth
+        message.modulation_phase = profile.phase_rad
+        self.profile_publisher.publish(message)
+        if self.pivot_publisher is not None and command.pivot_shift_m is not None:
+            self.pivot_message.data = command.pivot_shift_m
+            self.pivot_publisher.publish(self.pivot_message)
+        self.sent = command
+        self.last_sent_ns = now_ns
+
+    def _on_watchdog(self) -> None:
+        now_ns = self._now_ns()
+        pilot = self.pilot
+        if (
+            pilot.mode is Mode.VELOCITY
+            and self.cmd_timeout_ns > 0
+            and self.last_cmd_ns is not None
+            and now_ns - self.last_cmd_ns > self.cmd_timeout_ns
+        ):
+            self.get_logger().info("no cmd_vel for cmd_timeout_sec: stopping the carrier")
+            self._send(pilot.stop(), now_ns, force=True)
+        if (
+            pilot.mode is not Mode.IDLE
+            and not self.odometry_lost
+            and self.last_odom_ns is not None
+            and now_ns - self.last_odom_ns > self.odom_timeout_ns
+        ):
+            # Blind, the carrier stops; the command or the goal stands, and the pilot resumes
+            # when odometry comes back.
+            self.odometry_lost = True
+            self.get_logger().error(f"no {FISH_ODOM.name}: carrier stopped until it is back")
+            self._send(PilotCommand(STOPPED, pilot.command.pivot_shift_m), now_ns, force=True)
+
+    def _on_diagnostics(self) -> None:
+        pilot = self.pilot
+        level, text = Level.OK, f"{pilot.mode.value}"
+        values = {
+            "mode": pilot.mode.value,
+            "speed_command_m_s": f"{pilot.speed_command_m_s:.4g}",
+            "yaw_rate_command_rad_s": f"{pilot.yaw_rate_command_rad_s:.4g}",
+            "mean_speed_m_s": f"{pilot.mean_speed_m_s:.4g}",
+            "mean_heading_rad": f"{pilot.mean_heading_rad:.4g}",
+            "x_m": f"{pilot.position_m[0]:.4g}",
+            "y_m": f"{pilot.position_m[1]:.4g}",
+            "distance_to_goal_m": f"{pilot.distance_to_goal_m():.4g}",
+            "carrier_mean_speed_rad_s": f"{pilot.command.carrier.mean_speed_rad_s:.4g}",
+            "modulation_depth": f"{pilot.command.carrier.depth:.4g}",
+        }
+        if pilot.command.pivot_shift_m is not None:
+            values["pivot_shift_m"] = f"{pilot.command.pivot_shift_m:.4g}"
+        if pilot.mode is Mode.GOAL:
+            text = f"to goal: {pilot.distance_to_goal_m():.3f} m to go"
+        elif pilot.goal_reached:
+            text = "goal reached"
+        for report in pilot.limit_reports.values():
+            level = Level.WARN
+            values[f"achievable_{report.quantity}_{report.unit.replace('/', '_')}"] = (
+                f"{report.achievable:.4g}"
+            )
+            text = (
+                f"{report.quantity} {report.requested:.4g} {report.unit} is beyond reach: "
+                f"{report.achievable:.4g} {report.unit} at most ({report.reason})"
+            )
+        if self.refusals:
+            level = Level.WARN
+            text = f"refused: {self.refusals[-1]}"
+            values["refused"] = str(len(self.refusals))
+            self.refusals.clear()
+        if self.odometry_lost:
+            level, text = Level.ERROR, f"no {FISH_ODOM.name}: carrier stopped"
+        elif self.last_odom_ns is None:
+            level, text = Level.STALE, f"no {FISH_ODOM.name} received yet"
+        self.diagnostics_publisher.publish(
+            diagnostic_array(self, Status("pilot", level, text, values))
+        )
+
+
+#: How a process creates this node (its own ``main``, or ``fishtail-run --one-process``).
+FACTORY = NodeFactory(PilotNode, "pilot", (FishtailKinematicsError, SwimError))
+
+
+def main() -> int:
+    """Entry point of ``ros2 run fishtail_swim pilot``."""
+    return run_node(FACTORY.create, FACTORY.label, FACTORY.startup_errors)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

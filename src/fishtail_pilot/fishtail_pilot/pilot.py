@@ -1,0 +1,461 @@
+"""The pilot's control law: a velocity command or a goal in, carrier and pivot commands out.
+
+Plain Python (no rclpy); :mod:`fishtail_pilot.node` wires it to ``cmd_vel``,
+``goal_pose``, ``fish/odom`` and the driver's command topics.
+
+The fish's speed and heading oscillate within every beat (the tail pushes it sideways and back
+and forth once a carrier revolution), so the pilot steers by their means over the last beat
+(:class:`BeatAverage`), as a helmsman looks through the wiggle.
+
+* **Speed**: feed-forward from the steady-speed map (the cruising speed is proportional to the
+  beat frequency: U = (U/f) f, the spec's time-scaling law) plus proportional-integral feedback on
+  the beat-mean surge speed, with the integral frozen while the carrier is at its limit.
+* **Heading**: the demand, as yaw per beat, is the commanded yaw rate over the beat frequency plus
+  a proportional term on the error between a heading reference (the command integrated over
+  time, or the goal's bearing) and the beat-mean heading. The steering means (:class:`Steering`)
+  turns the demand (r / f depends on the geometry only) into its actuator's input.
+* **Goal**: head for it, steering on the beat-mean heading brought up to now with the beat's
+  mean yaw rate (its bearing swings fast near it), pass it straight while it lies inside the
+  tightest turning circle, slow down within ``slow_down_distance_m``, stop the carrier within
+  ``goal_tolerance_m``.
+* **Limits**: a speed or a yaw rate beyond what the fish can do is flown at the limit and reported
+  (:attr:`Pilot.limit_reports`) with the achievable value; never silently clipped.
+
+The time of every call is the caller's (the odometry stamps and the node's clock share one time
+base in the suite), in seconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from collections import deque
+from typing import NamedTuple, Protocol
+
+from fishtail_common.parameters import ParameterSpec
+from fishtail_kinematics.engine.carrier_profile import (
+    DEFAULT_TOP_SPEED_RAD_S,
+    CarrierSpeedProfile,
+)
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(angle_rad: float) -> float:
+    """``angle_rad`` brought into [-pi, pi).
+
+    >>> round(wrap_angle(3 * math.pi / 2), 6)
+    -1.570796
+    """
+    return (angle_rad + math.pi) % TWO_PI - math.pi
+
+
+class BeatAverage:
+    """The time-weighted mean of a signal over a sliding window (the last beat).
+
+    Samples are held for the window's length; the mean is the trapezoid integral over them divided
+    by their time span. A window shorter than the samples' spacing gives the latest value.
+
+    >>> average = BeatAverage()
+    >>> for t in range(5):
+    ...     average.add(float(t), float(t))
+    >>> average.mean(2.0)  # samples at 2, 3, 4
+    3.0
+    """
+
+    def __init__(self) -> None:
+        """Empty."""
+        self._samples: deque[tuple[float, float]] = deque()
+        self._integral = 0.0
+
+    def add(self, time_s: float, value: float) -> None:
+        """Append a sample (times increasing)."""
+        samples = self._samples
+        if samples:
+            last_time, last_value = samples[-1]
+            self._integral += 0.5 * (value + last_value) * (time_s - last_time)
+        samples.append((time_s, value))
+
+    def mean(self, window_s: float) -> float:
+        """The mean over the last ``window_s`` seconds of samples (NaN before the first sample)."""
+        samples = self._samples
+        if not samples:
+            return math.nan
+        latest_time, latest_value = samples[-1]
+        while len(samples) > 1 and latest_time - samples[1][0] >= window_s:
+            (first_time, first_value), (second_time, second_value) = samples[0], samples[1]
+            self._integral -= 0.5 * (first_value + second_value) * (second_time - first_time)
+            samples.popleft()
+        span = latest_time - samples[0][0]
+        if span <= 0.0:
+            return latest_value
+        return self._integral / span
+
+    def clear(self) -> None:
+        """Forget every sample."""
+        self._samples.clear()
+        self._integral = 0.0
+
+
+class SteeringCommand(NamedTuple):
+    """What a steering means asks of the actuators for one yaw-per-beat demand."""
+
+    depth: float  # modulation depth of the carrier's speed (0: constant speed)
+    phase_rad: float  # carrier angle of the fastest point
+    pivot_shift_m: float | None  # None: this means has no pivot actuator
+    yaw_per_beat_rad: float  # what the command achieves, r / f (the demand, or the limit)
+
+
+class Steering(Protocol):
+    """A steering means, mapping a wanted yaw per beat (r / f, rad) to its actuator's input."""
+
+    name: str
+
+    @property
+    def yaw_per_beat_range_rad(self) -> tuple[float, float]:
+        """The most negative (rightward) and most positive (leftward) r / f it can give."""
+
+    def command(self, yaw_per_beat_rad: float) -> SteeringCommand:
+        """The input that gives ``yaw_per_beat_rad`` (at the range's end beyond it)."""
+
+    def input_for(self, yaw_per_beat_rad: float) -> float:
+        """The actuator's input that gives ``yaw_per_beat_rad``."""
+
+    def turning_radius_at(self, steering_input: float) -> float:
+        """The signed radius of the steady circle at ``steering_input`` (m, > 0 left)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class PilotSettings:
+    """Gains and limits of the pilot (the node's parameters, with their units)."""
+
+    #: U / f of straight swimming: the distance covered per beat (m).
+    speed_per_beat_m: float
+    #: The driver's highest carrier speed (rad/s): the profile's peak stays within it.
+    max_carrier_speed_rad_s: float = DEFAULT_TOP_SPEED_RAD_S
+    #: Carrier speed per m/s of beat-mean speed error, as a fraction of the feed-forward's slope.
+    speed_gain: float = 2.0
+    #: Integral action of the speed loop (1/s): the fraction of the error added per second.
+    speed_integral_per_s: float = 0.2
+    #: Heading error to yaw demand per beat (rad per beat per rad of error). Per beat, not per
+    #: second: the fish answers its steering within a beat or two at any beat frequency.
+    heading_gain_per_beat: float = 3.0
+    #: Speed towards a goal (m/s); the carrier's limit caps it.
+    cruise_speed_m_s: float = 0.3
+    #: Within this distance of a goal the speed falls in proportion to the distance (m).
+    slow_down_distance_m: float = 1.0
+    #: A goal this close is reached: the carrier stops (m).
+    goal_tolerance_m: float = 0.2
+    #: How far the motor's speed lags its command (s): the modulation's phase is asked that much
+    #: of a revolution early, so that the carrier is fastest where the steering table wants it.
+    #: The DC gear motor under the firmware's 30 Hz loop lags 80-100 ms (docs/serial.md).
+    motor_lag_s: float = 0.1
+    #: The beat-mean window before the carrier turns (s); after that, one beat.
+    idle_window_s: float = 1.0
+
+
+_DEFAULTS = PilotSettings(speed_per_beat_m=1.0)
+
+#: The pilot's gains and limits as parameters (the node's; defaults from PilotSettings).
+CONTROL_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec("speed_gain", _DEFAULTS.speed_gain,
+                  "speed feedback, as a multiple of the feed-forward's carrier speed per m/s", "",
+                  0.0, 20.0),
+    ParameterSpec("speed_integral_per_s", _DEFAULTS.speed_integral_per_s,
+                  "integral action of the speed loop", "1/s", 0.0, 10.0),
+    ParameterSpec("heading_gain_per_beat", _DEFAULTS.heading_gain_per_beat,
+                  "yaw per beat asked per radian of heading error", "1/beat", 0.0, 10.0),
+    ParameterSpec("cruise_speed_m_s", _DEFAULTS.cruise_speed_m_s,
+                  "speed towards a goal", "m/s", 0.0, 10.0),
+    ParameterSpec("slow_down_distance_m", _DEFAULTS.slow_down_distance_m,
+                  "within this distance of a goal the speed falls with the distance", "m",
+                  0.01, 100.0),
+    ParameterSpec("goal_tolerance_m", _DEFAULTS.goal_tolerance_m,
+                  "a goal this close is reached and the carrier stops", "m", 0.01, 10.0),
+    ParameterSpec("max_carrier_speed_rad_s", _DEFAULTS.max_carrier_speed_rad_s,
+                  "the driver's top carrier speed: the profile's peak stays within it", "rad/s",
+                  0.1, 1000.0),
+    ParameterSpec("motor_lag_s", _DEFAULTS.motor_lag_s,
+                  "how far the motor's speed lags its command: the modulation is asked that much "
+                  "early (bench/bench_profile_following.py measures it)", "s", 0.0, 1.0),
+)  # fmt: skip
+#: A goal this close is reached (the console's route uses it too).
+GOAL_TOLERANCE = next(spec for spec in CONTROL_PARAMETERS if spec.name == "goal_tolerance_m")
+
+
+#: The profile's peak stays this fraction below the carrier's top speed.
+PEAK_MARGIN = 1e-9
+#: The longest step the speed loop's integral takes (s): after a gap in the odometry, the loop
+#: resumes instead of jumping by the whole gap's error.
+MAX_CONTROL_STEP_S = 0.2
+#: The lowest carrier speed while a speed is wanted, as a share of the feed-forward's.
+MIN_FEED_FORWARD_SHARE = 0.5
+#: A goal closer than this many tightest turning radii to the turning circle's centre is inside
+#: it: the fish tracks its beat-mean heading with a lag, so the circle it swims is wider.
+GOAL_CIRCLE_MARGIN = 1.3
+
+
+class Mode(enum.Enum):
+    """What the pilot is doing."""
+
+    IDLE = "idle"  # carrier stopped: no command, the watchdog fired, or a goal was reached
+    VELOCITY = "velocity"  # following cmd_vel
+    GOAL = "goal"  # swimming to goal_pose
+
+
+class PilotCommand(NamedTuple):
+    """The commands to send: the carrier's profile and the pivot's position (None: no pivot)."""
+
+    carrier: CarrierSpeedProfile
+    pivot_shift_m: float | None
+
+
+class LimitReport(NamedTuple):
+    """A command beyond what the fish can do: what was asked and what it can do instead."""
+
+    quantity: str  # "speed" or "yaw_rate"
+    requested: float
+    achievable: float
+    unit: str
+    reason: str
+
+
+class Pilot:
+    """The control law: commands and odometry in, :class:`PilotCommand` out."""
+
+    def __init__(self, settings: PilotSettings, steering: Steering) -> None:
+        """Start idle with the carrier stopped."""
+        self.settings = settings
+        self.steering = steering
+        self.mode = Mode.IDLE
+        self.speed_command_m_s = 0.0
+        self.yaw_rate_command_rad_s = 0.0
+        self.goal: tuple[float, float] | None = None
+        self.goal_reached = False
+        self._heading_reference: float | None = None
+        self._speed = BeatAverage()
+        self._heading = BeatAverage()
+        self._yaw_rate = BeatAverage()
+        self._unwrapped_heading: float | None = None
+        self._last_time_s: float | None = None
+        self._integral_rad_s = 0.0
+        self.mean_speed_m_s = math.nan
+        self.mean_heading_rad = math.nan
+        self.predicted_heading_rad = math.nan
+        self.position_m = (math.nan, math.nan)
+        self.command = PilotCommand(CarrierSpeedProfile(0.0), None)
+        self.limit_reports: dict[str, LimitReport] = {}
+
+    # ------------------------------------------------------------------ commands
+    def set_velocity(self, forward_m_s: float, yaw_rate_rad_s: float) -> str | None:
+        """Follow a velocity command from now on; the reason if it is refused (NaN, reverse)."""
+        if not (math.isfinite(forward_m_s) and math.isfinite(yaw_rate_rad_s)):
+            return f"cmd_vel ({forward_m_s!r}, {yaw_rate_rad_s!r}) is not finite"
+        if forward_m_s < 0.0:
+            return (
+                f"cmd_vel linear.x = {forward_m_s:g} m/s: the fish cannot swim backwards "
+                "(achievable: 0 and above)"
+            )
+        if self.mode is not Mode.VELOCITY:
+            self._heading_reference = None
+            self._integral_rad_s = 0.0
+        self.mode = Mode.VELOCITY
+        self.goal = None
+        self.speed_command_m_s = forward_m_s
+        self.yaw_rate_command_rad_s = yaw_rate_rad_s
+        return None
+
+    def set_goal(self, x_m: float, y_m: float) -> str | None:
+        """Swim to (x, y) in the world frame; the reason if it is refused (not finite)."""
+        if not (math.isfinite(x_m) and math.isfinite(y_m)):
+            return f"goal_pose ({x_m!r}, {y_m!r}) is not finite"
+        if self.mode is not Mode.GOAL:
+            self._integral_rad_s = 0.0
+        self.mode = Mode.GOAL
+        self.goal = (x_m, y_m)
+        self.goal_reached = False
+        self.yaw_rate_command_rad_s = 0.0
+        return None
+
+    def stop(self) -> PilotCommand:
+        """Stop the carrier (the watchdog, an odometry loss); the pivot keeps its position."""
+        self.mode = Mode.IDLE
+        self.speed_command_m_s = 0.0
+        self.yaw_rate_command_rad_s = 0.0
+        self._integral_rad_s = 0.0
+        self.limit_reports.clear()
+        self.command = PilotCommand(CarrierSpeedProfile(0.0), self.command.pivot_shift_m)
+        return self.command
+
+    # ------------------------------------------------------------------ odometry
+    def observe(
+        self,
+        time_s: float,
+        x_m: float,
+        y_m: float,
+        yaw_rad: float,
+        surge_m_s: float,
+        yaw_rate_rad_s: float,
+    ) -> PilotCommand:
+        """One odometry sample (pose in world, surge and yaw rate): the commands for now."""
+        if self._unwrapped_heading is None:
+            unwrapped = yaw_rad
+        else:
+            unwrapped = self._unwrapped_heading + wrap_angle(yaw_rad - self._unwrapped_heading)
+        self._unwrapped_heading = unwrapped
+        self._speed.add(time_s, surge_m_s)
+        self._heading.add(time_s, unwrapped)
+        window = self._window_s()
+        self.mean_speed_m_s = self._speed.mean(window)
+        self.mean_heading_rad = self._heading.mean(window)
+        # That mean is the heading of half a beat ago. Swimming to a goal, whose bearing swings
+        # fast as the fish nears it, the pilot steers on it brought up to now with the beat's mean
+        # yaw rate; following cmd_vel it steers on the mean itself, whose lag costs nothing there
+        # and which is free of the noise the estimate adds.
+        self._yaw_rate.add(time_s, yaw_rate_rad_s)
+        self.predicted_heading_rad = self.mean_heading_rad + 0.5 * window * self._yaw_rate.mean(
+            window
+        )
+        self.position_m = (x_m, y_m)
+        dt = 0.0 if self._last_time_s is None else time_s - self._last_time_s
+        dt = min(max(dt, 0.0), MAX_CONTROL_STEP_S)
+        self._last_time_s = time_s
+        if self.mode is Mode.IDLE:
+            return self.command
+        if self.mode is Mode.GOAL:
+            self._steer_to_goal()
+            if self.mode is Mode.IDLE:
+                return self.command
+        self.command = self._control(dt)
+        return self.command
+
+    def _window_s(self) -> float:
+        mean_speed = self.command.carrier.mean_speed_rad_s
+        if mean_speed <= 0.0:
+            return self.settings.idle_window_s
+        return TWO_PI / mean_speed
+
+    def distance_to_goal_m(self) -> float:
+        """From the fish's centre of mass to the goal (NaN without a goal)."""
+        if self.goal is None:
+            return math.nan
+        return math.hypot(self.goal[0] - self.position_m[0], self.goal[1] - self.position_m[1])
+
+    def _steer_to_goal(self) -> None:
+        assert self.goal is not None
+        distance = self.distance_to_goal_m()
+        if distance <= self.settings.goal_tolerance_m:
+            self.goal_reached = True
+            self.stop()
+            return
+        settings = self.settings
+        self.speed_command_m_s = settings.cruise_speed_m_s * min(
+            1.0, distance / settings.slow_down_distance_m
+        )
+        bearing = math.atan2(self.goal[1] - self.position_m[1], self.goal[0] - self.position_m[0])
+        error = wrap_angle(bearing - self.predicted_heading_rad)
+        if self._inside_turning_circle(error):
+            # Turning towards it would circle the goal for ever: swim straight on until the
+            # goal lies outside the tightest circle on that side, then turn.
+            error = 0.0
+        # The control law compares the reference with the mean heading.
+        self._heading_reference = self.mean_heading_rad + error
+
+    def _inside_turning_circle(self, bearing_error_rad: float) -> bool:
+        assert self.goal is not None
+        radius = GOAL_CIRCLE_MARGIN * self.min_turning_radius_m(bearing_error_rad)
+        heading = self.predicted_heading_rad
+        if not (math.isfinite(radius) and math.isfinite(heading)):
+            return False
+        side = math.copysign(1.0, bearing_error_rad)
+        centre_x = self.position_m[0] - side * radius * math.sin(heading)
+        centre_y = self.position_m[1] + side * radius * math.cos(heading)
+        return math.hypot(self.goal[0] - centre_x, self.goal[1] - centre_y) < radius
+
+    def _control(self, dt: float) -> PilotCommand:
+        settings = self.settings
+        reports: dict[str, LimitReport] = {}
+        # Speed: feed-forward carrier speed of the wanted speed, plus PI on the beat mean.
+        slope = TWO_PI / settings.speed_per_beat_m  # carrier rad/s per m/s
+        top_speed_m_s = settings.max_carrier_speed_rad_s / slope
+        wanted = self.speed_command_m_s
+        error = wanted - self.mean_speed_m_s if math.isfinite(self.mean_speed_m_s) else 0.0
+        mean_speed = slope * wanted + settings.speed_gain * slope * error + self._integral_rad_s
+        if wanted > top_speed_m_s:
+            reports["speed"] = LimitReport(
+                "speed", wanted, top_speed_m_s, "m/s",
+                f"the carrier's top speed {settings.max_carrier_speed_rad_s:g} rad/s",
+            )  # fmt: skip
+        # Heading: the yaw demand as yaw per beat at the beat frequency the speed loop asks for.
+        if self.mode is Mode.VELOCITY:
+            self._advance_reference(dt)
+        heading_error = 0.0
+        if self._heading_reference is not None and math.isfinite(self.mean_heading_rad):
+            heading_error = self._heading_reference - self.mean_heading_rad
+        low, high = self.steering.yaw_per_beat_range_rad
+        beat_hz = max(mean_speed, 0.0) / TWO_PI
+        yaw_per_beat = settings.heading_gain_per_beat * heading_error
+        if beat_hz > 0.0:
+            yaw_per_beat += self.yaw_rate_command_rad_s / beat_hz
+        steering = self.steering.command(yaw_per_beat if beat_hz > 0.0 else 0.0)
+        # The profile's peak must stay within the carrier's top speed: a deep modulation costs
+        # mean speed.
+        depth = steering.depth
+        # A hair below the limit, so that rounding cannot put the peak above the driver's.
+        ceiling = (
+            settings.max_carrier_speed_rad_s
+            * math.sqrt((1.0 - depth) / (1.0 + depth))
+            * (1.0 - PEAK_MARGIN)
+        )
+        # The carrier never drops below half the feed-forward while a speed is wanted: a stopped
+        # tail cannot steer, and, held off the axis, it is a rudder that turns the gliding fish.
+        floor = min(MIN_FEED_FORWARD_SHARE * slope * wanted, ceiling)
+        pushing_up = mean_speed >= ceiling and error > 0.0
+        pushing_down = mean_speed <= floor and error < 0.0
+        if not (pushing_up or pushing_down):
+            # Integrate only while the carrier can still act on the error (no wind-up).
+            self._integral_rad_s += (
+                settings.speed_integral_per_s * settings.speed_gain * slope * (error * dt)
+            )
+        mean_speed = min(max(mean_speed, floor), ceiling)
+        wanted_yaw = self.yaw_rate_command_rad_s
+        beat_hz_wanted = slope * wanted / TWO_PI
+        if wanted_yaw != 0.0:
+            reach = (high if wanted_yaw > 0.0 else low) * min(
+                beat_hz_wanted, settings.max_carrier_speed_rad_s / TWO_PI
+            )
+            if abs(wanted_yaw) > abs(reach):
+                reports["yaw_rate"] = LimitReport(
+                    "yaw_rate", wanted_yaw, reach, "rad/s",
+                    f"{self.steering.name} steering turns at most {abs(reach):.4g} rad/s at "
+                    f"{min(wanted, top_speed_m_s):.3g} m/s (a turning radius of at least "
+                    f"{self.min_turning_radius_m(wanted_yaw):.3g} m at any speed)",
+                )  # fmt: skip
+        self.limit_reports = reports
+        # The motor reaches each speed a lag late, a carrier angle of Omega tau further on.
+        phase = steering.phase_rad - mean_speed * settings.motor_lag_s if depth > 0.0 else 0.0
+        profile = CarrierSpeedProfile(mean_speed, depth, phase % TWO_PI)
+        return PilotCommand(profile, steering.pivot_shift_m)
+
+    def _advance_reference(self, dt: float) -> None:
+        if self._heading_reference is None:
+            if not math.isfinite(self.mean_heading_rad):
+                return
+            self._heading_reference = self.mean_heading_rad
+        self._heading_reference += self.yaw_rate_command_rad_s * dt
+        # A reference the fish cannot follow is held within a quarter turn of the heading, so
+        # the loop does not wind up a debt of whole turns while the command is beyond reach.
+        lag = self._heading_reference - self.mean_heading_rad
+        if abs(lag) > 0.5 * math.pi:
+            self._heading_reference = self.mean_heading_rad + math.copysign(0.5 * math.pi, lag)
+
+    def min_turning_radius_m(self, direction: float) -> float:
+        """The tightest circle the steering gives turning towards ``direction``'s sign (m)."""
+        # The steering's own radius: a deep modulation also swims further a beat than straight
+        # swimming does, so its circle is wider than (U/f straight) / (r/f).
+        low, high = self.steering.yaw_per_beat_range_rad
+        yaw_per_beat = high if direction > 0.0 else low
+        if yaw_per_beat == 0.0 or (yaw_per_beat > 0.0) != (direction > 0.0):
+            return math.inf
+        return abs(self.steering.turning_radius_at(self.steering.input_for(yaw_per_beat)))

@@ -1,0 +1,161 @@
+"""The pilot's control law on its own: commands, limits, goals, stops (no fish, no ROS)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fishtail_pilot.pilot import BeatAverage, Mode, Pilot, PilotSettings, wrap_angle
+from fishtail_pilot.steering_map import ModulationChannel, PivotChannel
+
+SPEED_PER_BEAT_M = 0.25
+TOP_CARRIER_RAD_S = 20.0
+
+
+DISTANCE = [SPEED_PER_BEAT_M] * 3
+
+
+def modulation(yaw_per_beat: float = 0.01) -> ModulationChannel:
+    # A made-up table, linear in the signed depth: yaw_per_beat rad a beat at full depth.
+    return ModulationChannel(
+        [-0.9, 0.0, 0.9], [-yaw_per_beat, 0.0, yaw_per_beat], DISTANCE, 1.0, 1.0 + math.pi
+    )
+
+
+def pilot(steering=None, **settings) -> Pilot:
+    settings.setdefault("motor_lag_s", 0.0)
+    return Pilot(
+        PilotSettings(SPEED_PER_BEAT_M, TOP_CARRIER_RAD_S, **settings), steering or modulation()
+    )
+
+
+def test_wrap_angle_keeps_angles_within_half_a_turn():
+    assert wrap_angle(0.0) == 0.0
+    assert wrap_angle(2 * math.pi + 0.1) == pytest.approx(0.1)
+    assert wrap_angle(-math.pi - 0.1) == pytest.approx(math.pi - 0.1)
+
+
+def test_beat_average_removes_a_whole_period_of_oscillation():
+    average = BeatAverage()
+    period = 0.8
+    for time_s in np.arange(0.0, 5.0, 0.001):
+        average.add(float(time_s), 0.3 + 0.2 * math.sin(2 * math.pi * time_s / period))
+    # The window spans the period plus less than one sample interval: at most amplitude times
+    # dt / period of the oscillation is left.
+    assert average.mean(period) == pytest.approx(0.3, abs=0.2 * 0.001 / period)
+
+
+def test_velocity_commands_that_are_not_finite_or_backwards_are_refused_with_a_reason():
+    fish_pilot = pilot()
+    assert "not finite" in fish_pilot.set_velocity(math.nan, 0.0)
+    assert "backwards" in fish_pilot.set_velocity(-0.1, 0.0)
+    assert fish_pilot.mode is Mode.IDLE
+    assert "not finite" in fish_pilot.set_goal(1.0, math.inf)
+
+
+def test_the_feed_forward_asks_the_carrier_speed_of_the_steady_speed_map():
+    fish_pilot = pilot(speed_gain=0.0, speed_integral_per_s=0.0)
+    fish_pilot.set_velocity(0.2, 0.0)
+    command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    # U = (U/f) f and f = Omega / 2 pi: Omega = 2 pi U / (U/f), hand-derived.
+    assert command.carrier.mean_speed_rad_s == pytest.approx(2 * math.pi * 0.2 / SPEED_PER_BEAT_M)
+    assert command.carrier.depth == 0.0
+    assert fish_pilot.limit_reports == {}
+
+
+def test_a_speed_beyond_the_carrier_is_flown_at_the_limit_and_reported_with_the_achievable():
+    fish_pilot = pilot()
+    fish_pilot.set_velocity(5.0, 0.0)
+    command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert command.carrier.mean_speed_rad_s == pytest.approx(TOP_CARRIER_RAD_S)
+    report = fish_pilot.limit_reports["speed"]
+    assert report.requested == 5.0
+    assert report.achievable == pytest.approx(TOP_CARRIER_RAD_S / (2 * math.pi) * SPEED_PER_BEAT_M)
+
+
+def test_a_turn_beyond_the_steering_is_reported_with_the_yaw_rate_it_can_give():
+    fish_pilot = pilot()
+    fish_pilot.set_velocity(0.2, 0.5)
+    fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0)
+    report = fish_pilot.limit_reports["yaw_rate"]
+    beat_hz = 0.2 / SPEED_PER_BEAT_M
+    assert report.achievable == pytest.approx(0.01 * beat_hz)
+    assert "radius of at least 25" in report.reason  # (U/f) / (r/f) = 0.25 / 0.01 m
+
+
+def test_a_turn_without_speed_is_reported_as_impossible():
+    fish_pilot = pilot()
+    fish_pilot.set_velocity(0.0, 0.1)
+    fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert fish_pilot.limit_reports["yaw_rate"].achievable == 0.0
+
+
+def test_a_left_turn_asks_for_leftward_steering_and_a_right_turn_for_rightward():
+    for yaw_rate, phase in ((0.001, 1.0), (-0.001, 1.0 + math.pi)):
+        fish_pilot = pilot()
+        fish_pilot.set_velocity(0.2, yaw_rate)
+        command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0)
+        assert command.carrier.depth > 0.0
+        assert command.carrier.phase_rad == pytest.approx(phase)
+        assert "yaw_rate" not in fish_pilot.limit_reports
+
+
+def test_the_profile_peak_never_exceeds_the_carrier_top_speed():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        fish_pilot = pilot()
+        fish_pilot.set_velocity(float(rng.uniform(0.0, 2.0)), float(rng.uniform(-1.0, 1.0)))
+        command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, float(rng.uniform(0.0, 1.0)), 0.0)
+        assert command.carrier.peak_speed_rad_s <= TOP_CARRIER_RAD_S * (1 + 1e-12)
+
+
+def test_a_goal_ahead_is_swum_to_and_the_carrier_stops_within_the_tolerance():
+    fish_pilot = pilot(goal_tolerance_m=0.2)
+    fish_pilot.set_goal(3.0, 0.0)
+    command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert fish_pilot.mode is Mode.GOAL and command.carrier.mean_speed_rad_s > 0.0
+    assert fish_pilot.distance_to_goal_m() == pytest.approx(3.0)
+    command = fish_pilot.observe(0.1, 2.85, 0.05, 0.0, 0.1, 0.0)
+    assert fish_pilot.goal_reached and fish_pilot.mode is Mode.IDLE
+    assert command.carrier.mean_speed_rad_s == 0.0
+
+
+def test_near_a_goal_the_pilot_slows_down_in_proportion_to_the_distance():
+    fish_pilot = pilot(slow_down_distance_m=1.0, cruise_speed_m_s=0.3, goal_tolerance_m=0.1)
+    fish_pilot.set_goal(0.5, 0.0)
+    fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert fish_pilot.speed_command_m_s == pytest.approx(0.15)
+
+
+def test_a_goal_to_the_left_asks_for_a_left_turn():
+    # Steering tight enough (0.5 rad a beat: a 0.5 m circle) for a goal 3 m to the side.
+    fish_pilot = pilot(modulation(0.5))
+    fish_pilot.set_goal(0.0, 3.0)
+    command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert command.carrier.depth > 0.0 and command.carrier.phase_rad == pytest.approx(1.0)
+
+
+def test_stop_stops_the_carrier_and_holds_the_pivot():
+    steering = PivotChannel([-0.03, 0.0, 0.03], [0.02, 0.0, -0.02], DISTANCE)
+    fish_pilot = pilot(steering)
+    fish_pilot.set_velocity(0.2, 0.001)
+    moving = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0)
+    assert moving.pivot_shift_m is not None and moving.pivot_shift_m < 0.0
+    stopped = fish_pilot.stop()
+    assert stopped.carrier.mean_speed_rad_s == 0.0
+    assert stopped.pivot_shift_m == moving.pivot_shift_m
+    assert fish_pilot.mode is Mode.IDLE
+
+
+def test_the_modulation_is_asked_a_motor_lag_early():
+    lagging, ideal = pilot(motor_lag_s=0.1), pilot()
+    for fish_pilot in (lagging, ideal):
+        fish_pilot.set_velocity(0.2, 0.001)
+    early = lagging.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0).carrier
+    on_time = ideal.observe(0.0, 0.0, 0.0, 0.0, 0.2, 0.0).carrier
+    # Hand-derived: a lag tau is a carrier angle of Omega tau.
+    expected = (on_time.phase_rad - on_time.mean_speed_rad_s * 0.1) % (2 * math.pi)
+    assert early.phase_rad == pytest.approx(expected)
+    assert (early.mean_speed_rad_s, early.depth) == (on_time.mean_speed_rad_s, on_time.depth)

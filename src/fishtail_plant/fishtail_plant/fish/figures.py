@@ -1,0 +1,223 @@
+"""Swimming figures of a trajectory over whole beats, and the cycle-average steady speed.
+
+Definitions (docs/swimming-dynamics.md): the mean speed Ū is the distance travelled by C over whole
+beats divided by their duration, measured beat end to beat end (so the wiggle inside a beat does
+not count); the mean thrust is <F_T,x> over the beats; the tail power P = -<F_T . (-Tx_dot,
+Ty_dot)>; the Froude efficiency <F_T,x> Ū / P; the Strouhal number f A / Ū with A the tip's peak-
+to-peak lateral excursion. The turning radius is that of the circle through the beat-end positions:
+R = chord / (2 sin(dpsi/2)) per beat, signed (> 0 turning left, inf swimming straight).
+
+Beat boundaries must fall on recorded samples: the recording interval has to divide every fish's
+beat period (choose the step as period / an integer); otherwise :class:`BeatAlignmentError`.
+
+>>> from fishtail_plant.fish.tail_drive import SinusoidalTailDrive
+>>> drive = SinusoidalTailDrive(0.2, 0.0, np.array([0.2, 0.4]), 2 * np.pi)
+>>> speeds = steady_surge_speed(drive, FishParameters(), drive.beat_period_s)
+>>> bool(speeds[1] > speeds[0] > 0.0)
+True
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_plant.errors import BeatAlignmentError, NoSteadySpeedError
+from fishtail_plant.fish.fish import FishParameters, FloatArray
+from fishtail_plant.fish.integrator import Trajectory
+from fishtail_plant.fish.model import (
+    PSI,
+    SURGE,
+    SWAY,
+    YAW_RATE,
+    GeneralisedForce,
+    SwimModel,
+    X,
+    Y,
+)
+from fishtail_plant.fish.model import trailing_edge_force as _trailing_edge_force
+from fishtail_plant.fish.tail_drive import TailDrive, TailSample
+
+# How far period/step may be from an integer and still count as whole steps per beat.
+_ALIGNMENT_TOLERANCE = 1e-6
+#: Samples per beat of the cycle means (a periodic trapezoid rule: spectrally accurate).
+CYCLE_SAMPLES = 128
+
+
+class BeatWindow(NamedTuple):
+    """Record indices of the beat ends of each fish: shape (beats + 1, N), the last beat last."""
+
+    indices: npt.NDArray[np.int_]
+    duration_s: FloatArray
+
+
+def beat_window(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int) -> BeatWindow:
+    """The last ``beats`` whole beats (from t = 0, one per period) recorded for each fish."""
+    period = np.broadcast_to(np.asarray(beat_period_s, dtype=float), trajectory.state.shape[1:2])
+    per_beat = period / trajectory.step_s
+    samples_per_beat = np.rint(per_beat).astype(int)
+    if np.any(np.abs(per_beat - samples_per_beat) > _ALIGNMENT_TOLERANCE * per_beat) or np.any(
+        samples_per_beat < 1
+    ):
+        raise BeatAlignmentError(
+            f"the recording interval {trajectory.step_s!r} s does not divide the beat periods "
+            f"{period.tolist()} s"
+        )
+    last = trajectory.time_s.size - 1
+    complete = last // samples_per_beat
+    if beats < 1 or np.any(complete < beats):
+        raise BeatAlignmentError(
+            f"{beats} whole beats asked, the trajectory holds {complete.tolist()}"
+        )
+    ends = complete * samples_per_beat
+    indices = ends[None, :] - np.arange(beats, -1, -1)[:, None] * samples_per_beat[None, :]
+    return BeatWindow(indices, beats * period)
+
+
+def _window_mean(values: FloatArray, time_s: FloatArray, window: BeatWindow) -> FloatArray:
+    # Trapezoidal mean of each fish's column over its own window: cumulative integral, differenced.
+    steps = np.diff(time_s)[:, None] * 0.5 * (values[1:] + values[:-1])
+    integral = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(steps, axis=0)])
+    fish = np.arange(values.shape[1])
+    start, end = window.indices[0], window.indices[-1]
+    mean = (integral[end, fish] - integral[start, fish]) / window.duration_s
+    return np.asarray(mean, dtype=float)
+
+
+class BeatMeans(NamedTuple):
+    """Means over whole beats, one element per fish."""
+
+    mean_speed_m_s: FloatArray
+    mean_surge_m_s: FloatArray
+    mean_sway_m_s: FloatArray
+    mean_yaw_rate_rad_s: FloatArray
+    heading_change_per_beat_rad: FloatArray
+    turning_radius_m: FloatArray
+
+
+def beat_means(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int) -> BeatMeans:
+    """Ū, <u>, <v>, <r>, the heading change per beat and the turning radius over the last beats."""
+    window = beat_window(trajectory, beat_period_s, beats)
+    fish = np.arange(trajectory.state.shape[1])
+    ends = trajectory.state[window.indices, fish[None, :]]
+    chords = np.hypot(np.diff(ends[..., X], axis=0), np.diff(ends[..., Y], axis=0))
+    turns = np.diff(ends[..., PSI], axis=0)
+    mean_chord = chords.mean(axis=0)
+    mean_turn = turns.mean(axis=0)
+    with np.errstate(divide="ignore"):
+        radius = np.where(
+            mean_turn != 0.0, mean_chord / (2.0 * np.sin(0.5 * mean_turn)), np.inf
+        )
+    state, time_s = trajectory.state, trajectory.time_s
+    return BeatMeans(
+        chords.sum(axis=0) / window.duration_s,
+        _window_mean(state[..., SURGE], time_s, window),
+        _window_mean(state[..., SWAY], time_s, window),
+        _window_mean(state[..., YAW_RATE], time_s, window),
+        mean_turn,
+        radius,
+    )
+
+
+def turning_radius(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int) -> FloatArray:
+    """Signed radius of the circle the beat-end positions lie on (> 0 left, inf straight)."""
+    return beat_means(trajectory, beat_period_s, beats).turning_radius_m
+
+
+class TailFigures(NamedTuple):
+    """Time-stepped tail figures over whole beats, one element per fish."""
+
+    mean_thrust_n: FloatArray
+    tail_power_w: FloatArray
+    froude_efficiency: FloatArray
+    tip_excursion_m: FloatArray
+    strouhal_number: FloatArray
+
+
+def tail_power(force: GeneralisedForce, tail: TailSample) -> FloatArray:
+    """Rate at which the tail works against the reactive force: -F_T . (-Tx_dot, Ty_dot).
+
+    The tip's velocity relative to the body is (-Tx_dot, Ty_dot) in the body frame (the tail
+    frame's x points backward).
+    """
+    power: FloatArray = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
+    return power
+
+
+def tail_figures(
+    model: SwimModel, trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int
+) -> TailFigures:
+    """<F_T,x>, P_tail, eta = <F_T,x> Ū / P_tail, A and St = f A / Ū over the last beats."""
+    window = beat_window(trajectory, beat_period_s, beats)
+    flow, _, tail = model.forces(trajectory.time_s[:, None], trajectory.state)
+    force = flow.force
+    thrust = _window_mean(force.x, trajectory.time_s, window)
+    mean_power = _window_mean(tail_power(force, tail), trajectory.time_s, window)
+    speed = beat_means(trajectory, beat_period_s, beats).mean_speed_m_s
+    start, end = window.indices[0], window.indices[-1]
+    record = np.arange(trajectory.time_s.size)[:, None]
+    inside = (record >= start[None, :]) & (record <= end[None, :])
+    tip_y = np.broadcast_to(tail.tip_y, inside.shape)
+    excursion = np.where(inside, tip_y, -np.inf).max(axis=0) - np.where(
+        inside, tip_y, np.inf
+    ).min(axis=0)
+    frequency = beats / window.duration_s
+    return TailFigures(
+        thrust, mean_power, thrust * speed / mean_power, excursion, frequency * excursion / speed
+    )
+
+
+def cycle_mean_tail_force(
+    drive: TailDrive,
+    fish: FishParameters,
+    surge_speed_m_s: npt.ArrayLike,
+    beat_period_s: npt.ArrayLike,
+    samples: int = CYCLE_SAMPLES,
+) -> FloatArray:
+    """<F_T,x> over one beat with the body held at u = U, v = r = 0 (one element per fish).
+
+    The recoil of a fin with chord is a time derivative of a periodic quantity when the body is
+    held, so its mean is zero and it is left out.
+    """
+    period = np.asarray(beat_period_s, dtype=float)
+    times = np.arange(samples)[:, None] / samples * period
+    tail = drive.sample(times)
+    u = np.asarray(surge_speed_m_s, dtype=float) + np.zeros_like(tail.tip_x)
+    zero = np.zeros_like(u)
+    force: FloatArray = _trailing_edge_force(fish, tail, u, zero, zero).force.x
+    return np.asarray(force.mean(axis=0), dtype=float)
+
+
+def steady_surge_speed(
+    drive: TailDrive,
+    fish: FishParameters,
+    beat_period_s: npt.ArrayLike,
+    samples: int = CYCLE_SAMPLES,
+) -> FloatArray:
+    """The U > 0 with <F_T,x>(U) = ½ rho S C_D U² (sway and yaw held), one per fish.
+
+    With v = r = 0 the trailing-edge force is a quadratic in U (v_T is affine in U), so its cycle
+    mean a + b U + c U² follows exactly from the means at U = 0, 1, -1 m/s and the balance is a
+    quadratic equation: no iteration.
+    """
+    at_rest, ahead, astern = (
+        cycle_mean_tail_force(drive, fish, speed, beat_period_s, samples)
+        for speed in (0.0, 1.0, -1.0)
+    )
+    linear = 0.5 * (ahead - astern)
+    quadratic = 0.5 * (ahead + astern) - at_rest - np.asarray(fish.drag_factor_kg_m)
+    # a + b U + q U² = 0 with q < 0 (drag wins at speed) and a > 0 (thrust at rest).
+    discriminant = linear * linear - 4.0 * quadratic * at_rest
+    usable = (quadratic < 0.0) & (at_rest > 0.0) & (discriminant >= 0.0)
+    if not usable.all():
+        bad = int(np.flatnonzero(~np.broadcast_to(usable, at_rest.shape))[0])
+        raise NoSteadySpeedError(
+            f"fish {bad}: cycle-mean thrust {float(at_rest.ravel()[bad]):.6g} N at rest with "
+            f"net quadratic coefficient {float(np.ravel(quadratic)[bad]):.6g} N s²/m² has no "
+            "positive balance speed"
+        )
+    root = np.sqrt(discriminant)
+    # The positive root, written to avoid cancellation: 2a / (-b + sqrt(b² - 4 a q)) with q < 0.
+    return np.asarray((2.0 * at_rest) / (root - linear), dtype=float)

@@ -1,0 +1,344 @@
+"""One fish following a sampled carrier angle: RK4 between samples, swimming figures per beat.
+
+The simulator node feeds every accepted ``motor/joint_state`` sample (stamp, unwrapped carrier
+angle) to :meth:`SwimFollower.follow`; this module has no ROS in it.
+
+Between two consecutive samples the carrier angle is interpolated linearly, so the carrier turns
+at the constant speed (phi1 - phi0) / (t1 - t0) within the interval. That is the carrier's actual
+motion to first order: its error is of order phi_ddot dt² / 8 in the angle (zero at constant
+motor speed), and the samples' reported velocities are not used. The engine's tail is solved at
+every RK4 stage time of that interpolated motion (:class:`EngineTailDrive`, never an interpolated
+tail), and the interval is cut into equal sub-steps of at most ``max_step_s``.
+
+A beat is one carrier revolution, from a carrier angle that is a multiple of 2 pi to the next
+(the library's beats, which start at phi = 0 at t = 0). The time the angle crosses a boundary is
+found on the interpolated motion and made a sub-step boundary, so every beat starts and ends on
+an integrated state. The first beat starts at the first crossing, or when the carrier first moves
+forward from a boundary (the driver starts at phi = 0 and may idle there): an idle carrier never
+starts a beat. Over a beat the follower accumulates, by the trapezoid rule on the sub-step
+grid, the means of the trailing-edge force along body x and of the tail power, and the extremes of
+the tip's lateral position; at its end :class:`BeatFigures` gives the spec's figures with the
+library's definitions (:mod:`fishtail_plant.fish.figures` for one beat on a uniform grid gives
+the same numbers; the unit tests check that).
+
+An interval longer than ``max_interval_s`` (the input stopped, then resumed) is not integrated:
+the fish keeps its state, time jumps, and the beat in progress is abandoned. :meth:`SwimFollower.
+restart` does the same at any sample, also one stamped before the previous (a restarted driver, a
+replayed recording); the fish's time then stands still across it.
+
+:meth:`SwimFollower.follow` is all or nothing: when the engine or the dynamics raise within an
+interval, the error propagates and the follower is left as it was before the call, so the next
+sample integrates from the last one that succeeded.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from typing import NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_kinematics.engine.mechanisms import Tail
+from fishtail_plant.errors import SwimInputError
+from fishtail_plant.fish.figures import tail_power
+from fishtail_plant.fish.fish import FishParameters, FloatArray
+from fishtail_plant.fish.integrator import Stepper
+from fishtail_plant.fish.model import PSI, STATE_SIZE, SwimModel, X, Y
+from fishtail_plant.fish.tail_drive import EngineTailDrive
+
+TWO_PI = 2.0 * math.pi
+# Sub-intervals shorter than this are not integrated (a beat boundary that coincides with a
+# sample up to rounding): far below any step, far above the rounding of times of a long run.
+_MIN_SEGMENT_S = 1e-12
+
+
+class StampNotIncreasingError(ValueError):
+    """A sample stamped at or before the previous one: the fish's time cannot go back."""
+
+
+class LinearCarrier:
+    """The carrier between two samples: phi = phi0 + phi_dot (t - t0), a CarrierMotion."""
+
+    def __init__(self) -> None:
+        """At rest at phi = 0 until :meth:`set` is called."""
+        self.start_time_s = 0.0
+        self.start_angle_rad = 0.0
+        self.speed_rad_s = 0.0
+
+    def set(self, start_time_s: float, start_angle_rad: float, speed_rad_s: float) -> None:
+        """Follow the line through (t0, phi0) with slope ``speed_rad_s`` from now on."""
+        self.start_time_s = start_time_s
+        self.start_angle_rad = start_angle_rad
+        self.speed_rad_s = speed_rad_s
+
+    def __call__(self, time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """phi, phi_dot and phi_ddot (0) at ``time_s``."""
+        elapsed = np.asarray(time_s, dtype=float) - self.start_time_s
+        angle = self.start_angle_rad + self.speed_rad_s * elapsed
+        return angle, np.full_like(angle, self.speed_rad_s), np.zeros_like(angle)
+
+
+class BeatFigures(NamedTuple):
+    """The spec's swimming figures of one complete beat (see fishtail_msgs/SwimFigures)."""
+
+    beat_index: int
+    end_time_s: float  # since the first sample
+    duration_s: float
+    frequency_hz: float
+    mean_speed_m_s: float
+    body_lengths_per_s: float
+    tip_excursion_m: float
+    strouhal_number: float
+    mean_thrust_n: float
+    mean_tail_power_w: float
+    froude_efficiency: float
+    turning_radius_m: float
+    heading_change_rad: float
+
+
+def _ratio(numerator: float, denominator: float) -> float:
+    # A figure divided by a zero speed or power: inf (or nan for 0/0), never an exception.
+    if denominator == 0.0:
+        return math.copysign(math.inf, numerator) if numerator != 0.0 else math.nan
+    return numerator / denominator
+
+
+class _BeatAccumulator:
+    """Integrals and extremes over the beat in progress, from its start state on."""
+
+    def __init__(self, time_s: float, state: FloatArray, thrust: float, power: float,
+                 tip_y: float) -> None:  # fmt: skip
+        self.start_time_s = time_s
+        self.start_pose = (float(state[0, X]), float(state[0, Y]), float(state[0, PSI]))
+        self.last_time_s = time_s
+        self.last_thrust = thrust
+        self.last_power = power
+        self.thrust_integral = 0.0
+        self.power_integral = 0.0
+        self.tip_y_low = tip_y
+        self.tip_y_high = tip_y
+
+    def add(self, time_s: float, thrust: float, power: float, tip_y: float) -> None:
+        half_step = 0.5 * (time_s - self.last_time_s)
+        self.thrust_integral += half_step * (thrust + self.last_thrust)
+        self.power_integral += half_step * (power + self.last_power)
+        self.last_time_s, self.last_thrust, self.last_power = time_s, thrust, power
+        self.tip_y_low = min(self.tip_y_low, tip_y)
+        self.tip_y_high = max(self.tip_y_high, tip_y)
+
+    def figures(self, index: int, state: FloatArray, body_length_m: float) -> BeatFigures:
+        duration = self.last_time_s - self.start_time_s
+        x0, y0, psi0 = self.start_pose
+        chord = math.hypot(float(state[0, X]) - x0, float(state[0, Y]) - y0)
+        turn = float(state[0, PSI]) - psi0
+        speed = chord / duration
+        thrust = self.thrust_integral / duration
+        power = self.power_integral / duration
+        excursion = self.tip_y_high - self.tip_y_low
+        frequency = 1.0 / duration
+        radius = chord / (2.0 * math.sin(0.5 * turn)) if turn != 0.0 else math.inf
+        return BeatFigures(
+            beat_index=index,
+            end_time_s=self.last_time_s,
+            duration_s=duration,
+            frequency_hz=frequency,
+            mean_speed_m_s=speed,
+            body_lengths_per_s=speed / body_length_m,
+            tip_excursion_m=excursion,
+            strouhal_number=_ratio(frequency * excursion, speed),
+            mean_thrust_n=thrust,
+            mean_tail_power_w=power,
+            froude_efficiency=_ratio(thrust * speed, power),
+            turning_radius_m=radius,
+            heading_change_rad=turn,
+        )
+
+
+class SwimFollower:
+    """One fish, from rest at the origin, swimming with the carrier's sampled motion."""
+
+    def __init__(
+        self,
+        tail: Tail,
+        fish: FishParameters,
+        max_step_s: float,
+        max_interval_s: float = math.inf,
+    ) -> None:
+        """Follow ``tail`` on ``fish`` (one fish: float parameters) with sub-steps <= max_step_s."""
+        if not (math.isfinite(max_step_s) and max_step_s > 0.0):
+            raise ValueError(f"max_step_s must be finite and positive, got {max_step_s!r}")
+        if not max_interval_s > 0.0:
+            raise ValueError(f"max_interval_s must be positive, got {max_interval_s!r}")
+        self.fish = fish
+        self.max_step_s = max_step_s
+        self.max_interval_s = max_interval_s
+        self.carrier = LinearCarrier()
+        self.model = SwimModel(fish, EngineTailDrive(tail, self.carrier))
+        self._stepper = Stepper(self.model, 1)
+        self._body_length_m = float(fish.body_length_m)
+        #: (1, 6): X, Y, psi in world; u, v, r in the body frame.
+        self.state: FloatArray = np.zeros((1, STATE_SIZE))
+        #: Seconds since the first sample (None before it).
+        self.time_s: float | None = None
+        self.angle_rad = 0.0
+        #: Stamp of the first sample: the fish's time 0.
+        self.first_stamp_ns = 0
+        self._last_stamp_ns = 0
+        self._next_boundary_rad = 0.0
+        self._beat: _BeatAccumulator | None = None
+        self.beats_completed = 0
+        self.sub_steps = 0
+        self.restarts = 0
+        #: Beats completed since the last :meth:`take_beats`.
+        self.finished: list[BeatFigures] = []
+
+    @property
+    def started(self) -> bool:
+        """True once a sample has been followed."""
+        return self.time_s is not None
+
+    def follow(self, stamp_ns: int, angle_rad: float) -> None:
+        """Integrate up to the sample at ``stamp_ns`` (after the previous one) with its angle.
+
+        Raises ValueError for a non-finite angle and :class:`StampNotIncreasingError` for a stamp
+        not after the previous sample's: the caller drops those before (the node's input guard).
+        An error of the engine or the dynamics (FishtailKinematicsError, SwimError) propagates
+        and leaves the follower unchanged.
+        """
+        if not math.isfinite(angle_rad):
+            raise ValueError(f"carrier angle {angle_rad!r} is not finite")
+        if self.time_s is None:
+            self.first_stamp_ns = self._last_stamp_ns = stamp_ns
+            self.time_s = 0.0
+            self.angle_rad = angle_rad
+            self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
+            return
+        if stamp_ns <= self._last_stamp_ns:
+            raise StampNotIncreasingError(
+                f"stamp {stamp_ns} ns is not after the previous {self._last_stamp_ns}"
+            )
+        start_time, start_angle = self.time_s, self.angle_rad
+        end_time = (stamp_ns - self.first_stamp_ns) * 1e-9
+        duration = end_time - start_time
+        if duration > self.max_interval_s:
+            self._last_stamp_ns = stamp_ns
+            self._restart(end_time, angle_rad)
+            return
+        speed = (angle_rad - start_angle) / duration
+        carrier = self.carrier
+        previous_carrier = (carrier.start_time_s, carrier.start_angle_rad, carrier.speed_rad_s)
+        carrier.set(start_time, start_angle, speed)
+        # Everything below works on local copies; the follower takes them only once the whole
+        # interval is integrated, so a failure part-way cannot leave a half-advanced fish.
+        try:
+            state = self.state
+            beat = copy.copy(self._beat)  # its sums grow in place
+            next_boundary = self._next_boundary_rad
+            finished: list[BeatFigures] = []
+            steps = 0
+            segment_start = start_time
+            # Beat boundaries crossed in this interval become sub-step boundaries.
+            while speed > 0.0 and angle_rad >= next_boundary:
+                crossing = start_time + (next_boundary - start_angle) / speed
+                crossing = min(max(crossing, segment_start), end_time)
+                state, segment_steps = self._integrate(state, beat, segment_start, crossing)
+                steps += segment_steps
+                segment_start = crossing
+                next_boundary += TWO_PI
+                if beat is not None:
+                    index = self.beats_completed + len(finished)
+                    finished.append(beat.figures(index, state, self._body_length_m))
+                beat = _BeatAccumulator(crossing, state, *self._tail_figures_now(crossing, state))
+            state, segment_steps = self._integrate(state, beat, segment_start, end_time)
+            steps += segment_steps
+        except BaseException:
+            carrier.set(*previous_carrier)
+            raise
+        self.state = state
+        self._beat = beat
+        self._next_boundary_rad = next_boundary
+        self.finished.extend(finished)
+        self.beats_completed += len(finished)
+        self.sub_steps += steps
+        self._last_stamp_ns = stamp_ns
+        self.time_s, self.angle_rad = end_time, angle_rad
+
+    def restart(self, stamp_ns: int, angle_rad: float) -> None:
+        """Follow the carrier afresh from this sample, whatever its stamp and angle.
+
+        For a stream that restarted (a restarted driver, a replayed recording): the carrier's
+        phase relative to the previous samples is unknown, so nothing is integrated up to this
+        sample and the beat in progress is abandoned, as after a gap; the fish keeps its state.
+        A stamp at or before the previous one moves the fish's time 0 (``first_stamp_ns``) by as
+        much, so the fish's time stands still across the restart instead of going back.
+        """
+        if not math.isfinite(angle_rad):
+            raise ValueError(f"carrier angle {angle_rad!r} is not finite")
+        if self.time_s is None:
+            self.follow(stamp_ns, angle_rad)
+            return
+        if stamp_ns <= self._last_stamp_ns:
+            self.first_stamp_ns += stamp_ns - self._last_stamp_ns
+        self._last_stamp_ns = stamp_ns
+        self._restart((stamp_ns - self.first_stamp_ns) * 1e-9, angle_rad)
+
+    def set_tail(self, tail: Tail) -> None:
+        """Swim with ``tail`` from the next sample on; the fish's state and beat carry on.
+
+        For a tail whose geometry changes slowly while it swims (the pivot actuator moving S):
+        the change takes effect at a sample, a step in the tail's motion no larger than the
+        actuator's travel in one sample interval.
+        """
+        self.model = SwimModel(self.fish, EngineTailDrive(tail, self.carrier))
+        self._stepper = Stepper(self.model, 1)
+
+    def take_beats(self) -> list[BeatFigures]:
+        """The beats completed since the last call, oldest first."""
+        finished, self.finished = self.finished, []
+        return finished
+
+    def _restart(self, time_s: float, angle_rad: float) -> None:
+        self.restarts += 1
+        self._beat = None
+        self.time_s, self.angle_rad = time_s, angle_rad
+        self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
+
+    def _tail_figures_now(self, time_s: float, state: FloatArray) -> tuple[float, float, float]:
+        """Thrust F_T,x, tail power and the tip's body-frame y at ``time_s`` for ``state``."""
+        thrust, power, tip_y = self._tail_figures(np.array([time_s]), state)
+        return float(thrust[0]), float(power[0]), float(tip_y[0])
+
+    def _tail_figures(
+        self, time_s: FloatArray, states: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Thrust, tail power and tip y at each of ``time_s`` (K,) for ``states`` (K, 1, 6)."""
+        flow, _, tail = self.model.forces(time_s[:, None], states)
+        power = tail_power(flow.force, tail)
+        return flow.force.x[:, 0], power[:, 0], np.broadcast_to(tail.tip_y, power.shape)[:, 0]
+
+    def _integrate(
+        self, state: FloatArray, beat: _BeatAccumulator | None, start_s: float, end_s: float
+    ) -> tuple[FloatArray, int]:
+        """``state`` integrated from ``start_s`` to ``end_s`` (added to ``beat``), and the steps."""
+        length = end_s - start_s
+        if length < _MIN_SEGMENT_S:
+            return state, 0
+        # A step a rounding error longer than max_step_s (stamps are whole nanoseconds) is one step.
+        steps = max(1, math.ceil(length / self.max_step_s - 1e-6))
+        step = length / steps
+        states = np.empty((steps + 1, 1, STATE_SIZE))
+        states[0] = state
+        state = self._stepper.advance(state, start_s, 0, steps, step, 1, states)
+        if not np.isfinite(state).all():
+            raise SwimInputError(
+                f"the integration diverged (non-finite state) from t = {start_s:.6f} s"
+            )
+        if beat is not None:
+            ends: FloatArray = start_s + np.arange(1, steps + 1, dtype=np.float64) * step
+            ends[-1] = end_s
+            figures = self._tail_figures(ends, states[1:])
+            for end, thrust, power, tip_y in zip(ends, *figures, strict=True):
+                beat.add(float(end), float(thrust), float(power), float(tip_y))
+        return state, steps

@@ -1,0 +1,127 @@
+"""What the tail asks of the motor: the carrier's load torque and inertia for a motor model.
+
+A DC motor model (:mod:`~fishtail_plant.motor.dc_motor`) takes its load as two callables of the
+carrier angle phi and speed omega: ``torque(phi, omega)``, the torque the load needs apart from its
+inertia (the linkage's ½ J'(phi) omega² and the water's reaction), and ``inertia(phi)``, the
+linkage's reduced inertia J(phi), which belongs on the motor's left-hand side. :class:`TailLoad`
+gives them for one tail in one of four surroundings (:data:`SURROUNDINGS`):
+
+* ``none``: no load (a motor turning freely);
+* ``air``: the links' inertia only (no water);
+* ``water_held``: the links and the water, the fish held at rest (a bench test in a tank);
+* ``water_swimming``: the links and the water with the fish towed at the steady speed it would
+  swim at with the carrier at omega. Every force is quadratic in velocity, so that speed is
+  U = kappa omega with one kappa per fish and tail (docs/swimming-dynamics.md, check 1): found once
+  from the cycle-average balance at 1 rad/s, then U follows omega within each revolution.
+
+>>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
+>>> from fishtail_plant.linkage_load.link_inertia import LinkInertia
+>>> from fishtail_kinematics.engine.mechanisms import make_tail
+>>> load = TailLoad(make_tail(OscillatoryGeometry()), LinkInertia(), FishParameters(), "air")
+>>> load.torque(0.3, 0.0), load.inertia(0.3) > 0.0     # at rest, no torque; always some inertia
+(0.0, True)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_kinematics.engine.mechanisms import Tail
+from fishtail_plant.errors import SwimInputError
+from fishtail_plant.fish.figures import steady_surge_speed
+from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
+from fishtail_plant.linkage_load.carrier_load import CarrierLoad, CarrierLoadModel
+from fishtail_plant.linkage_load.link_inertia import LinkInertia
+from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
+from fishtail_plant.linkage_load.water import carrier_load_in_water
+
+
+def swimming_speed_per_carrier_speed(tail: Tail, fish: FishParameters) -> float:
+    """U / omega [m/rad] of the fish's steady straight swimming (the cycle-average balance)."""
+    drive = EngineTailDrive(tail, constant_carrier_speed(1.0))
+    return float(np.ravel(steady_surge_speed(drive, fish, 2.0 * math.pi))[0])
+
+
+class TailLoad:
+    """The carrier's load for a motor model: ``torque(phi, omega)`` and ``inertia(phi)``.
+
+    Every velocity of the linkage and of the water is the carrier speed times a ratio that depends
+    on phi alone (the towed fish's U = kappa omega too), and every term of the load is quadratic in
+    them: the load torque is exactly omega² c(phi), with c the torque at 1 rad/s. A motor model
+    asks for it a few thousand times a simulated second, one angle at a time, where the engine's
+    per-call cost (60-200 µs) would be far too slow; so c and J are solved once, vectorised, on
+    :data:`TABLE_SIZE` angles over a revolution, and read back by periodic cubic (Catmull-Rom)
+    interpolation, to a few 1e-9 of their peaks (a test holds it to the exact load).
+    """
+
+    def __init__(
+        self, tail: Tail, inertia: LinkInertia, fish: FishParameters, surroundings: str
+    ) -> None:
+        """Load of ``tail`` with links ``inertia`` on ``fish``, in ``surroundings``."""
+        if surroundings not in SURROUNDINGS:
+            raise SwimInputError(
+                f"surroundings {surroundings!r} is not one of {', '.join(SURROUNDINGS)}"
+            )
+        self.surroundings = surroundings
+        self.model = CarrierLoadModel(tail, inertia)
+        self.fish = fish
+        swimming = surroundings == "water_swimming"
+        #: kappa = U / omega of the towed fish (0 unless swimming).
+        self.speed_per_carrier_speed_m_rad = (
+            swimming_speed_per_carrier_speed(tail, fish) if swimming else 0.0
+        )
+        angles = np.arange(TABLE_SIZE) * (2.0 * math.pi / TABLE_SIZE)
+        if surroundings == "none":
+            per_speed_squared = np.zeros(TABLE_SIZE)
+            reduced = np.zeros(TABLE_SIZE)
+        else:
+            exact = self.exact(angles, 1.0)
+            per_speed_squared = np.asarray(exact.torque_n_m, dtype=float)
+            reduced = np.asarray(exact.reduced_inertia_kg_m2, dtype=float)
+        # Plain lists: indexing them from Python is several times cheaper than numpy scalars.
+        self._torque_table = _periodic_padding(per_speed_squared)
+        self._inertia_table = _periodic_padding(reduced)
+
+    def exact(self, phi_rad: npt.ArrayLike, omega_rad_s: npt.ArrayLike) -> CarrierLoad:
+        """The engine's load at (phi, omega), phi'' = 0, arrays or floats (what the table holds)."""
+        if self.surroundings.startswith("water"):
+            surge = self.speed_per_carrier_speed_m_rad * np.asarray(omega_rad_s, dtype=float)
+            return carrier_load_in_water(self.model, self.fish, phi_rad, omega_rad_s, 0.0, surge)
+        return self.model.load(phi_rad, omega_rad_s)
+
+    def torque(self, phi_rad: float, omega_rad_s: float) -> float:
+        """The torque [N m] the carrier gives the load at phi, omega, apart from J(phi) phi''."""
+        return omega_rad_s * omega_rad_s * _interpolate(self._torque_table, phi_rad)
+
+    def inertia(self, phi_rad: float) -> float:
+        """The linkage's inertia reduced to the carrier, J(phi) [kg m²] (0 with no load)."""
+        return _interpolate(self._inertia_table, phi_rad)
+
+
+#: Angles per revolution of the load's table: cubic interpolation error ~ (2 pi / size)^4.
+TABLE_SIZE = 4096
+_STEPS_PER_RAD = TABLE_SIZE / (2.0 * math.pi)
+
+
+def _periodic_padding(values: npt.NDArray[np.float64]) -> list[float]:
+    # One value before and two after the revolution, so that any index i has i-1 .. i+2.
+    return [float(values[-1]), *map(float, values), float(values[0]), float(values[1])]
+
+
+def _interpolate(table: list[float], phi_rad: float) -> float:
+    position = (phi_rad % (2.0 * math.pi)) * _STEPS_PER_RAD
+    index = int(position)
+    if index >= TABLE_SIZE:  # phi a rounding error below a whole turn
+        index -= TABLE_SIZE
+        position -= TABLE_SIZE
+    t = position - index
+    before, here, after, beyond = table[index : index + 4]
+    # Catmull-Rom: the cubic through here and after with central-difference slopes.
+    return here + 0.5 * t * (
+        after - before + t * (2.0 * before - 5.0 * here + 4.0 * after - beyond
+                              + t * (3.0 * (here - after) + beyond - before))
+    )  # fmt: skip

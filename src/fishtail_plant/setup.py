@@ -1,0 +1,22 @@
+"""Build script of the fishtail_plant ament_python package (built by colcon)."""
+
+from setuptools import find_packages, setup
+
+PACKAGE = "fishtail_plant"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="fishtail maintainers",
+    maintainer_email="fishtail@example.com",
+    description="The fishtail suite's physical plant: motor, linkage load, fish body and water.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+)

@@ -1,0 +1,25 @@
+"""Run the examples in the docstrings of every pure module of fishtail_plant."""
+
+from __future__ import annotations
+
+import pytest
+
+import fishtail_plant
+from fishtail_common.docstring_examples import pure_modules, run_examples
+
+
+def test_the_modules_are_found():
+    """The discovery sees the modules (so the doctest run below cannot be empty)."""
+    names = {name for name, _ in pure_modules(fishtail_plant)}
+    modules = ("fish.formulas", "fish.model", "fish.integrator", "fish.fish", "linkage_load.tail_load")
+    for module in modules:
+        assert f"fishtail_plant.{module}" in names
+
+
+@pytest.mark.parametrize(("name", "has_examples"), pure_modules(fishtail_plant))
+def test_doctests(name, has_examples):
+    """Every docstring example passes; a module with examples does run them."""
+    result = run_examples(name)
+    assert result.failed == 0
+    if has_examples:
+        assert result.attempted > 0

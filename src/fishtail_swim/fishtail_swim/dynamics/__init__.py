@@ -1,1 +1,0 @@
-"""Planar rigid-body swimming driven by the tail (numpy only; see docs/swimming-dynamics.md)."""

@@ -1,0 +1,1 @@
+"""What the tests and benchmarks share and the product does not ship."""
