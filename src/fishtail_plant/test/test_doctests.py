@@ -11,8 +11,8 @@ from fishtail_common.docstring_examples import pure_modules, run_examples
 def test_the_modules_are_found():
     """The discovery sees the modules (so the doctest run below cannot be empty)."""
     names = {name for name, _ in pure_modules(fishtail_plant)}
-    modules = ("fish.formulas", "fish.model", "fish.integrator", "fish.fish", "linkage_load.tail_load")
-    for module in modules:
+    modules = ("fish.formulas", "fish.model", "fish.integrator", "fish.fish")
+    for module in (*modules, "linkage_load.tail_load"):
         assert f"fishtail_plant.{module}" in names
 
 
