@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
@@ -45,4 +46,106 @@ def test_the_workspace_dependencies_have_no_cycle():
         done.add(name)
 
     for name in depends:
+        visit(name, ())
+
+
+# --------------------------------------------------------------------------------------------
+# The layers: each package uses only packages to its left, says so in its manifest, and no
+# module of the product imports itself back through others.
+
+#: The packages in the order of dependence (fishtail_msgs, interfaces only, may be used by all).
+LAYERS = (
+    "fishtail_msgs", "fishtail_common", "fishtail_kinematics", "fishtail_plant", "fishtail_driver",
+    "fishtail_pilot", "fishtail_swim", "fishtail_boards", "fishtail_bringup",
+)  # fmt: skip
+
+
+def _manifest_depends(package: str) -> set[str]:
+    root = ElementTree.parse(SOURCES / package / "package.xml").getroot()
+    names = {element.text for element in root if element.tag.endswith("depend")}
+    return {name for name in names if name and name.startswith("fishtail_")}
+
+
+def _product_modules() -> dict[str, Path]:
+    """Module name -> source file, for every package's own code (not its tests)."""
+    modules: dict[str, Path] = {}
+    for package in LAYERS[1:]:
+        root = SOURCES / package
+        for path in sorted((root / package).rglob("*.py")):
+            parts = path.relative_to(root).with_suffix("").parts
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            modules[name] = path
+    return modules
+
+
+def _run_time_nodes(tree: ast.AST) -> list[ast.AST]:
+    """Every node of ``tree`` but those under ``if TYPE_CHECKING:`` (never imported at run time)."""
+    nodes: list[ast.AST] = []
+    pending = [tree]
+    while pending:
+        node = pending.pop()
+        nodes.append(node)
+        for child in ast.iter_child_nodes(node):
+            checking = isinstance(child, ast.If) and ast.unparse(child.test) == "TYPE_CHECKING"
+            pending.extend(child.orelse if checking else [child])
+    return nodes
+
+
+def _imports(path: Path) -> set[str]:
+    """Every module ``path`` imports at run time, at any depth (function-level imports included)."""
+    found: set[str] = set()
+    for node in _run_time_nodes(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.add(node.module)
+            found.update(f"{node.module}.{alias.name}" for alias in node.names)
+    return found
+
+
+def test_the_manifests_follow_the_layers():
+    assert {path.parent.name for path in MANIFESTS} == set(LAYERS)
+    for index, package in enumerate(LAYERS):
+        later = set(LAYERS[index + 1 :]) & _manifest_depends(package)
+        assert not later, f"{package} depends on {sorted(later)}, which build on it"
+
+
+def test_the_driver_takes_nothing_of_the_simulator_pilot_or_boards_onto_the_fish():
+    assert not _manifest_depends("fishtail_driver") & {
+        "fishtail_swim", "fishtail_pilot", "fishtail_boards", "fishtail_bringup",
+    }  # fmt: skip
+
+
+def test_every_package_declares_the_packages_its_code_imports():
+    modules = _product_modules()
+    for name, path in modules.items():
+        package = name.split(".")[0]
+        used = {imported.split(".")[0] for imported in _imports(path)}
+        ours = {other for other in used if other in LAYERS and other != package}
+        undeclared = ours - _manifest_depends(package)
+        assert not undeclared, f"{path} imports {sorted(undeclared)}, not in its package.xml"
+        later = ours & set(LAYERS[LAYERS.index(package) + 1 :])
+        assert not later, f"{path} imports {sorted(later)}, which build on {package}"
+
+
+def test_no_module_imports_itself_back():
+    modules = _product_modules()
+    graph = {
+        name: {imported for imported in _imports(path) if imported in modules and imported != name}
+        for name, path in modules.items()
+    }
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+
+    def visit(name: str, path: tuple[str, ...]) -> None:
+        if state.get(name) == 1:
+            cycle = path[path.index(name) :]
+            raise AssertionError(f"import cycle: {' -> '.join((*cycle, name))}")
+        if state.get(name) == 2:
+            return
+        state[name] = 1
+        for imported in sorted(graph[name]):
+            visit(imported, (*path, name))
+        state[name] = 2
+
+    for name in sorted(graph):
         visit(name, ())

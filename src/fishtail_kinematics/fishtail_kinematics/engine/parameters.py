@@ -3,9 +3,7 @@
 The kinematics node declares :data:`MECHANISM` and the geometry specs
 (:data:`~fishtail_kinematics.engine.geometry.GEOMETRY_PARAMETERS`), the command line builds its
 flags from them, and ``config/*.yaml`` must agree with them (a test checks). The same files hold
-the links' masses and moments of inertia
-(:data:`~fishtail_plant.linkage_load.link_inertia.INERTIA_PARAMETERS`), which are not geometry:
-they are read by :func:`~fishtail_plant.linkage_load.link_inertia.link_inertia_from_parameters`.
+other parameters (the links' masses, the fish): :func:`geometry_parameters_in` picks the geometry's.
 
 >>> geometry = geometry_from_parameters({"mechanism": "oscillatory", "pivot_offset_m": 0.18})
 >>> geometry.pivot_offset_m
@@ -30,7 +28,6 @@ from fishtail_kinematics.engine.geometry import (
     OSCILLATORY,
     Geometry,
 )
-from fishtail_plant.linkage_load.link_inertia import INERTIA_PARAMETERS_BY_NAME
 
 MECHANISM = ParameterSpec("mechanism", OSCILLATORY, "tail mechanism", choices=MECHANISMS)
 #: The mechanism and every length: the parameters that make a geometry.
@@ -51,10 +48,10 @@ def check_parameter(name: str, value: object) -> float:
 def geometry_from_parameters(values: Mapping[str, object]) -> Geometry:
     """Build the geometry that ``values`` describe; names not given keep their defaults.
 
-    Names of the other mechanism are accepted and ignored (a node declares them all), and so are
-    the links' masses and inertias (a parameter file holds them beside the lengths); unknown
-    names, wrong types and out-of-range values raise :class:`ParameterError`. Whether the linkage
-    assembles is checked by the engine, not here.
+    Names of the other mechanism are accepted and ignored (a node declares them all); unknown
+    names, wrong types and out-of-range values raise :class:`ParameterError` (pick a parameter
+    file's geometry with :func:`geometry_parameters_in`). Whether the linkage assembles is checked
+    by the engine, not here.
     """
     mechanism = values.get(MECHANISM.name, MECHANISM.default)
     try:
@@ -64,7 +61,7 @@ def geometry_from_parameters(values: Mapping[str, object]) -> Geometry:
     fields = geometry_type.__dataclass_fields__
     chosen = {}
     for name, value in values.items():
-        if name == MECHANISM.name or name in INERTIA_PARAMETERS_BY_NAME:
+        if name == MECHANISM.name:
             continue
         number = check_parameter(name, value)
         if name in fields:

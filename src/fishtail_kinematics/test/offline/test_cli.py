@@ -16,7 +16,7 @@ import pytest
 from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
-from fishtail_kinematics.engine.parameters import geometry_from_parameters
+from fishtail_kinematics.engine.parameters import geometry_from_parameters, geometry_parameters_in
 from fishtail_kinematics.offline import cli
 from fishtail_kinematics.offline.table_columns import table_columns
 
@@ -42,7 +42,7 @@ def rows(text: str) -> tuple[list[str], np.ndarray]:
 def test_config_files_hold_the_report_geometry(name, geometry):
     values = load_parameter_file(CONFIG / f"{name}.yaml")
     assert values["mechanism"] == name
-    assert geometry_from_parameters(values) == geometry
+    assert geometry_from_parameters(geometry_parameters_in(values)) == geometry
     # Every value of the geometry is written in the file, none left to a default.
     assert set(dataclasses.asdict(geometry)) <= set(values)
 

@@ -11,7 +11,11 @@ import pytest
 from fishtail_common.parameter_files import load_parameter_file
 from fishtail_kinematics.engine.errors import ParameterError
 from fishtail_kinematics.engine.mechanisms import TAIL_TYPES, OscillatoryTail, UndulatoryTail
-from fishtail_kinematics.engine.parameters import geometry_from_parameters
+from fishtail_kinematics.engine.parameters import (
+    GEOMETRY_PARAMETER_NAMES,
+    geometry_from_parameters,
+    geometry_parameters_in,
+)
 from fishtail_plant.errors import InvalidInertiaError
 from fishtail_plant.linkage_load.link_inertia import (
     INERTIA_PARAMETERS,
@@ -79,8 +83,9 @@ def test_config_files_hold_each_links_values(tail_type):
         assert value == pytest.approx(defaults[name], rel=1e-11), name
     built = dataclasses.asdict(link_inertia_from_parameters(in_file))
     assert built == pytest.approx(defaults, rel=1e-11)
-    # The geometry ignores them.
-    assert geometry_from_parameters(values) == tail_type.geometry_type()
+    # None of them is a geometry parameter, and the file's geometry is the report's.
+    assert not set(in_file) & GEOMETRY_PARAMETER_NAMES
+    assert geometry_from_parameters(geometry_parameters_in(values)) == tail_type.geometry_type()
 
 
 def test_every_link_belongs_to_a_mechanism():
