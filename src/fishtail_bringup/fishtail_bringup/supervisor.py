@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from fishtail_bringup.one_process import END_OF_ROS_ARGS, HOSTABLE
-from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, SuiteNode
+from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SuiteNode
 
 SHUTDOWN_WAIT_S = 5.0
 #: The label of the process that hosts the nodes with ``one_process``.
@@ -41,8 +41,9 @@ class Supervisor:
     ) -> None:
         """Remember how to start the nodes.
 
-        ``fish_config``, the fish's parameter file, goes to the simulator, and to the driver with
-        ``driver_reads_fish`` (its motor turns the tail), and to the pilot. ``one_process``: host
+        ``fish_config``, the fish's parameter file, goes to the nodes that read it
+        (:attr:`SuiteNode.reads_fish_file`: the monitor, the simulator, the pilot), and to the
+        driver with ``driver_reads_fish`` (its motor turns the tail). ``one_process``: host
         the nodes in one process (:meth:`commands`). ``pilot_params`` (``NAME:=VALUE``) go to the
         pilot. ``boards``: commands by label of processes the nodes talk to (a simulated motor
         board), started before the nodes and stopped after them.
@@ -74,7 +75,7 @@ class Supervisor:
     def ros_arguments_for(self, node: SuiteNode) -> list[str]:
         """The ``--ros-args ...`` of one node: parameter files, namespace, driver parameters."""
         command = ["--ros-args", "--params-file", str(self.config)]
-        reads_fish = node in (SWIM_NODE, PILOT_NODE) or (
+        reads_fish = node.reads_fish_file or (
             self.driver_reads_fish and node.package == "fishtail_driver"
         )
         if reads_fish and self.fish_config is not None:

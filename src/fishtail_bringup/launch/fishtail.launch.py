@@ -107,11 +107,13 @@ def generate_launch_description():
     # them, as every node ignores the parameters of a file that it does not declare.
     driver_parameters = [dc_motor_encoder(motor_model), params_file, fish_params_file, driver]
     parameters = {
-        node: driver_parameters if node.package == "fishtail_driver" else [params_file]
-        for node in SUITE_NODES
+        node: [params_file, fish_params_file] if node.reads_fish_file else [params_file]
+        for node in (*SUITE_NODES, SWIM_NODE, PILOT_NODE)
     }
-    parameters[SWIM_NODE] = [params_file, fish_params_file]
-    parameters[PILOT_NODE] = [params_file, fish_params_file, {STEERING.name: steering}]
+    parameters.update(
+        {node: driver_parameters for node in SUITE_NODES if node.package == "fishtail_driver"}
+    )
+    parameters[PILOT_NODE].append({STEERING.name: steering})
     one_process = LaunchConfiguration("one_process")
     # The pilot flies the simulated fish: it brings the simulator.
     swim = OrSubstitution(LaunchConfiguration("swim"), pilot)

@@ -199,6 +199,8 @@ class SuiteNode:
     package: str
     executable: str  # installed under lib/<package>/ for ros2 run and launch_ros
     module: str  # python -m <module> starts it without the ament index
+    #: It declares the fish's parameters (the fin, the body): it gets the fish's parameter file.
+    reads_fish_file: bool = False
 
 
 #: The suite, in start-up order (data flows from the first to the last).
@@ -208,14 +210,22 @@ SUITE_NODES: tuple[SuiteNode, ...] = (
         "kinematics", "fishtail_kinematics", "node", "fishtail_kinematics.nodes.kinematics_node"
     ),
     SuiteNode(
-        "monitor", "fishtail_kinematics", "monitor", "fishtail_kinematics.nodes.monitor_node"
+        "monitor",
+        "fishtail_kinematics",
+        "monitor",
+        "fishtail_kinematics.nodes.monitor_node",
+        reads_fish_file=True,  # the fin of its swimming figures
     ),
 )
 #: The swimming simulator: not in the default suite (``fishtail-run --swim`` adds it).
-SWIM_NODE = SuiteNode("swim", "fishtail_swim", "sim", "fishtail_swim.nodes.sim_node")
+SWIM_NODE = SuiteNode(
+    "swim", "fishtail_swim", "sim", "fishtail_swim.nodes.sim_node", reads_fish_file=True
+)
 #: The pilot (cmd_vel and goal_pose in, carrier and pivot commands out): not in the default suite
 #: (``fishtail-run --pilot`` adds it, with the simulator).
-PILOT_NODE = SuiteNode("pilot", "fishtail_swim", "pilot", "fishtail_pilot.node")
+PILOT_NODE = SuiteNode(
+    "pilot", "fishtail_swim", "pilot", "fishtail_pilot.node", reads_fish_file=True
+)
 #: The live view (a Rerun viewer's data source): not in the default suite (``fishtail-run --view``
 #: adds it).
 VIEW_NODE = SuiteNode("view", "fishtail_bringup", "fishtail-view", "fishtail_bringup.view")

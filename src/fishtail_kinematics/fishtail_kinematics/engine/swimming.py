@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_common.parameters import ParameterSpec
-from fishtail_kinematics.engine.geometry import FloatArray
+from fishtail_kinematics.engine.geometry import FloatArray, Real
 from fishtail_kinematics.engine.symmetry import DEFAULT_HYSTERESIS_RAD, BeatStatistics, beats_of
 
 #: Strouhal numbers at which efficient swimmers and flyers cruise (Taylor et al. 2003).
@@ -54,6 +54,13 @@ EFFICIENT_STROUHAL_RANGE = (0.2, 0.4)
 #: Fresh water [kg/m^3].
 FRESH_WATER_DENSITY_KG_M3 = 1000.0
 
+#: The fin's span and the water's density: the monitor's, the analysis's and the fish's
+#: (fishtail_plant's fish parameters are these very specs, so one fish file sets them all).
+FIN_SPAN = ParameterSpec("fin_span_m", 0.1, "fin span s at the trailing edge (the tip)", "m",
+                         1e-3, 5.0)  # fmt: skip
+WATER_DENSITY = ParameterSpec(
+    "water_density_kg_m3", FRESH_WATER_DENSITY_KG_M3, "water density rho", "kg/m^3", 1.0, 2000.0
+)
 #: What the monitor node declares and the analysis accepts (as flags and in a parameter file).
 SWIMMING_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
@@ -64,11 +71,20 @@ SWIMMING_PARAMETERS: tuple[ParameterSpec, ...] = (
         1e-3,
         20.0,
     ),
-    ParameterSpec("fin_span_m", 0.1, "fin span s at the trailing edge (the tip)", "m", 1e-3, 5.0),
-    ParameterSpec(
-        "water_density_kg_m3", FRESH_WATER_DENSITY_KG_M3, "water density rho", "kg/m^3", 1.0, 2000.0
-    ),
+    FIN_SPAN,
+    WATER_DENSITY,
 )
+
+
+def fin_added_mass_per_length(water_density_kg_m3: Real, fin_span_m: Real) -> Real:
+    """Lighthill's m = (pi/4) rho s^2: added mass per unit length of the trailing edge [kg/m].
+
+    Plain arithmetic, so a batch of fish (arrays) works as well as one.
+
+    >>> round(fin_added_mass_per_length(1000.0, 0.1), 4)
+    7.854
+    """
+    return 0.25 * math.pi * water_density_kg_m3 * fin_span_m**2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,8 +121,8 @@ class SwimmingParameters:
 
     @property
     def added_mass_per_length_kg_m(self) -> float:
-        """Lighthill's m = (pi/4) rho s^2: added mass per unit length of the trailing edge."""
-        return 0.25 * math.pi * self.water_density_kg_m3 * self.fin_span_m**2
+        """Lighthill's m = (pi/4) rho s^2 (:func:`fin_added_mass_per_length`)."""
+        return float(fin_added_mass_per_length(self.water_density_kg_m3, self.fin_span_m))
 
 
 #: Where the forward speed U of the monitor's figures came from (its ``forward_speed_source``).

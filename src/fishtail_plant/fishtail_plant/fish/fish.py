@@ -22,12 +22,17 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from typing import Any, TypeAlias
+from typing import Any, TypeAlias, cast
 
 import numpy as np
 import numpy.typing as npt
 
 from fishtail_common.parameters import ParameterSpec
+from fishtail_kinematics.engine.swimming import (
+    FIN_SPAN,
+    WATER_DENSITY,
+    fin_added_mass_per_length,
+)
 from fishtail_plant.errors import FishParameterError, SwimParameterError
 from fishtail_plant.fish.spheroid import crossflow_yaw_damping, prolate_spheroid
 
@@ -35,7 +40,7 @@ FloatArray: TypeAlias = npt.NDArray[np.float64]
 #: One value per fish, or one value for all.
 PerFish: TypeAlias = float | FloatArray
 
-_DENSITY = 1000.0
+_DENSITY = float(WATER_DENSITY.default)
 _LENGTH = 0.5
 _DIAMETER = 0.2
 _BODY = prolate_spheroid(_LENGTH, _DIAMETER, _DENSITY)
@@ -44,7 +49,7 @@ _TINY = 1e-6
 
 #: The fish's parameters, in the order of config/fish.yaml.
 FISH_PARAMETERS: tuple[ParameterSpec, ...] = (
-    ParameterSpec("water_density_kg_m3", _DENSITY, "water density rho", "kg/m^3", 1.0, 2000.0),
+    WATER_DENSITY,
     ParameterSpec("body_length_m", _LENGTH, "hull length L (prolate spheroid)", "m", _TINY, 20.0),
     ParameterSpec("body_diameter_m", _DIAMETER, "hull diameter D", "m", _TINY, 10.0),
     ParameterSpec("body_mass_kg", _BODY.mass_kg, "body mass m (neutrally buoyant hull)", "kg",
@@ -71,7 +76,7 @@ FISH_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("tail_origin_offset_m", 0.05,
                   "l_O: distance from the centre of mass C back to the ring-gear centre O", "m",
                   0.0, 20.0),
-    ParameterSpec("fin_span_m", 0.1, "span d of the fin at the trailing edge", "m", 0.001, 5.0),
+    FIN_SPAN,
     ParameterSpec("fin_chord_m", 0.0, "chord c of the rigid fin (0: no recoil term)", "m",
                   0.0, 5.0),
 )  # fmt: skip
@@ -167,7 +172,8 @@ class FishParameters:
     @property
     def fin_added_mass_per_length_kg_m(self) -> PerFish:
         """Lighthill's m = (pi/4) rho d² at the trailing edge."""
-        return math.pi / 4.0 * self.water_density_kg_m3 * self.fin_span_m**2
+        # float64 in, float64 out: the engine's alias admits any float dtype.
+        return cast(PerFish, fin_added_mass_per_length(self.water_density_kg_m3, self.fin_span_m))
 
     @property
     def drag_factor_kg_m(self) -> PerFish:
