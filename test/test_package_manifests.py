@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import importlib
 import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
@@ -149,3 +150,10 @@ def test_no_module_imports_itself_back():
 
     for name in sorted(graph):
         visit(name, ())
+
+
+@pytest.mark.parametrize("package", [name for name in LAYERS if name != "fishtail_msgs"])
+def test_every_name_of_a_package_front_resolves(package):
+    front = importlib.import_module(package)
+    for name in getattr(front, "__all__", ()):
+        assert getattr(front, name) is not None, f"{package}.{name}"

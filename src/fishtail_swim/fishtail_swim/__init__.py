@@ -1,1 +1,4 @@
-"""Swimming dynamics of the robotic fish (the pure model in :mod:`fishtail_plant.fish`)."""
+"""The swimming simulator node (markers, tf) and the ``fishtail-swim`` command line.
+
+The fish it simulates is :mod:`fishtail_plant`; docs/swimming-dynamics.md.
+"""
