@@ -1,15 +1,17 @@
-"""Reading the suite's rosbag2 bags with rosbags, one message at a time: shared by the readers.
+"""Reading the suite's rosbag2 bags with rosbags, one message at a time: the suite's one reader.
 
-``fishtail-analyse`` (:mod:`fishtail_kinematics.offline.recording`) and ``fishtail-swim animate
---bag`` (:mod:`fishtail_swim.offline.recorded_run`) read bags that ``fishtail-record`` (or
-``ros2 bag record``) wrote; both open them here:
+``fishtail-analyse`` (:mod:`fishtail_kinematics.offline.recording`), ``fishtail-swim animate
+--bag`` (:mod:`fishtail_swim.offline.recorded_run`) and ``fishtail-view --bag``
+(:mod:`fishtail_bringup.view_replay`) read bags that ``fishtail-record`` (or ``ros2 bag record``)
+wrote; all open them here:
 
 * :func:`bag_typestore`: the Jazzy typestore, plus the definitions the bag carries, plus the
   installed fishtail_msgs (for what the bag does not carry);
 * :func:`pick_topic`: the topic of a type named ``<namespace>/<suffix>`` (a suite recorded under a
   namespace has its topics there);
 * :class:`BagFile`: an open bag whose messages are deserialised one at a time as they are read, so
-  that a reader keeps only what it takes from each (no list of messages);
+  that a reader keeps only what it takes from each (no list of messages); a split bag
+  (``fishtail-record`` writes one storage file per segment) is read as one;
 * :func:`stamp_ns`, :func:`yaw_of_quaternion`: header stamps and planar headings.
 
 Every problem with the input raises :class:`BagError` (or the reader's own error class, given as
@@ -28,6 +30,7 @@ from types import TracebackType
 from typing import Any
 
 from fishtail_common.bag_types import register_package_types
+from fishtail_common.interface import Topic
 
 
 class BagError(Exception):
@@ -90,6 +93,22 @@ def pick_topic(
     return candidates[0] if candidates else None
 
 
+def allow_many_open_files() -> None:
+    """Raise the soft limit of open files to the hard one, best effort.
+
+    rosbags opens every storage file of a split bag at once; a long ``fishtail-record`` run has
+    one file per segment, more than the common soft limit of 1024.
+    """
+    try:
+        import resource
+
+        soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+        if soft != resource.RLIM_INFINITY and (hard == resource.RLIM_INFINITY or soft < hard):
+            resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+    except (ImportError, OSError, ValueError):
+        pass
+
+
 def stamp_ns(message: Any) -> int:
     """The message's header stamp in nanoseconds."""
     stamp = message.header.stamp
@@ -116,6 +135,8 @@ class BagFile:
         self.error = error
         if not self.path.exists():
             raise error(f"{self.path}: no such file or directory")
+        if self.path.is_dir():
+            allow_many_open_files()
         try:
             self.reader = Reader(self.path)
             self.reader.open()
@@ -148,9 +169,42 @@ class BagFile:
         """Close the bag's files."""
         self.reader.close()
 
+    @property
+    def file_count(self) -> int:
+        """How many storage files the bag has (a split bag's segments; a storage file alone: 1)."""
+        from rosbags.rosbag2.reader import DirectoryReader
+
+        storage = self.reader.storage
+        return len(storage.storages) if isinstance(storage, DirectoryReader) else 1
+
+    @property
+    def message_count(self) -> int:
+        """How many messages the bag holds, all topics."""
+        return int(self.reader.message_count)
+
+    @property
+    def duration_ns(self) -> int:
+        """From the first receive time to the last, ns."""
+        return int(self.reader.duration)
+
+    @property
+    def end_ns(self) -> int:
+        """The receive time just after the last message, ns."""
+        return int(self.reader.end_time)
+
     def listing(self) -> str:
         """The bag's topics and types, for messages: ``/a (pkg/msg/A), ...`` or ``none``."""
         return ", ".join(f"{c.topic} ({c.msgtype})" for c in self.connections) or "none"
+
+    def pick(self, topic: Topic, namespace: str | None, any_name: bool = True) -> str | None:
+        """The bag's topic for ``topic`` under ``namespace``, as :func:`pick_topic` picks it."""
+        return pick_topic(
+            self.connections, topic.type, topic.name, namespace, any_name, error=self.error
+        )
+
+    def count(self, topic: str | None) -> int:
+        """How many messages the bag holds on ``topic`` (0 for None)."""
+        return sum(int(c.msgcount) for c in self.connections if c.topic == topic)
 
     def connections_of(self, *topics: str | None) -> list[Any]:
         """The connections of these topics (None entries ignored)."""

@@ -57,26 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _allow_many_open_files() -> None:
-    """Raise the soft limit of open files to the hard one, best effort.
-
-    rosbags opens every storage file of a split bag at once; a long ``fishtail-record`` run has
-    one file per segment, more than the common soft limit of 1024.
-    """
-    try:
-        import resource
-
-        soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
-        if soft != resource.RLIM_INFINITY and (hard == resource.RLIM_INFINITY or soft < hard):
-            resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
-    except (ImportError, OSError, ValueError):
-        pass
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``fishtail-analyse``."""
     arguments = build_parser().parse_args(argv)
-    _allow_many_open_files()
     try:
         overrides = {
             spec.name: getattr(arguments, spec.name)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from fishtail_common.bag_reading import bag_typestore, describe_error, pick_topic, stamp_ns
+from fishtail_common.bag_reading import BagFile, describe_error, stamp_ns
 from fishtail_common.interface import (
     CARRIER_JOINT,
     MECHANISM_CODES,
@@ -97,76 +97,31 @@ def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
 # ---- bags
 
 
-def _pick_topic(
-    connections: Sequence[Any],
-    msgtype: str,
-    suffix: str,
-    namespace: str | None,
-    any_name: bool = True,
-) -> str | None:
-    """The topic of ``msgtype`` named ``<namespace>/<suffix>`` (the shared ``pick_topic``)."""
-    return pick_topic(connections, msgtype, suffix, namespace, any_name, error=AnalysisError)
-
-
 def read_bag(path: Path, namespace: str | None = None) -> Recording:
     """Read tail/state, motor/joint_state and tail/symmetry from a rosbag2 bag."""
-    try:
-        return _read_bag(path, namespace)
-    except AnalysisError:
-        raise
-    except Exception as error:  # noqa: BLE001 - rosbags and sqlite raise many kinds on bad files
-        raise AnalysisError(
-            f"{path}: not a readable rosbag2 bag: {describe_error(error)}"
-        ) from None
-
-
-def _read_bag(path: Path, namespace: str | None) -> Recording:
-    from rosbags.rosbag2 import Reader
-    from rosbags.rosbag2.reader import DirectoryReader
-
-    reader = Reader(path)
-    reader.open()
-    try:
-        connections = list(reader.connections)
-        # A bag directory is read through one storage per file; a storage file alone is one.
-        storage = reader.storage
-        file_count = len(storage.storages) if isinstance(storage, DirectoryReader) else 1
-        listing = ", ".join(f"{c.topic} ({c.msgtype})" for c in connections) or "none"
-        state_topic = _pick_topic(connections, TAIL_STATE.type, TAIL_STATE.name, namespace)
+    with BagFile(path, error=AnalysisError) as bag:
+        state_topic = bag.pick(TAIL_STATE, namespace)
         # Other JointState topics (tail/joint_states) are not the carrier.
-        joint_topic = _pick_topic(
-            connections, MOTOR_JOINT_STATE.type, MOTOR_JOINT_STATE.name, namespace, any_name=False
-        )
-        report_topic = _pick_topic(connections, TAIL_SYMMETRY.type, TAIL_SYMMETRY.name, namespace)
+        joint_topic = bag.pick(MOTOR_JOINT_STATE, namespace, any_name=False)
+        report_topic = bag.pick(TAIL_SYMMETRY, namespace)
         if state_topic is None and joint_topic is None:
             where = f" in namespace {namespace!r}" if namespace is not None else ""
             raise AnalysisError(
                 f"{path}: no tail/state or motor/joint_state topic{where}: not a fishtail "
-                f"recording (topics: {listing})"
+                f"recording (topics: {bag.listing()})"
             )
-        wanted = [c for c in connections if c.topic in (state_topic, joint_topic, report_topic)]
-        store = bag_typestore(connections)
-        for connection in wanted:
-            if connection.msgtype not in store.fielddefs:
-                raise AnalysisError(
-                    f"{path}: no definition of {connection.msgtype} in the bag or installed"
-                )
-            if connection.digest and store.hash_rihs01(connection.msgtype) != connection.digest:
-                raise AnalysisError(
-                    f"{path}: {connection.topic} was recorded with another definition of "
-                    f"{connection.msgtype} (hash {connection.digest})"
-                )
         states: list[Any] = []
         joints: list[Any] = []
         reports: list[Any] = []
         sink = {state_topic: states, joint_topic: joints, report_topic: reports}
-        for connection, _, raw in reader.messages(connections=wanted):
-            sink[connection.topic].append(store.deserialize_cdr(raw, connection.msgtype))
-        message_count = reader.message_count
-        duration_s = reader.duration * 1e-9
-    finally:
-        reader.close()
-    description = f"rosbag2 bag, {file_count} file(s), {message_count} messages, {duration_s:.1f} s"
+        for connection, _, message in bag.messages(
+            bag.connections_of(state_topic, joint_topic, report_topic)
+        ):
+            sink[connection.topic].append(message)
+        description = (
+            f"rosbag2 bag, {bag.file_count} file(s), {bag.message_count} messages, "
+            f"{bag.duration_ns * 1e-9:.1f} s"
+        )
     if state_topic is not None and not states:
         if not joints:
             raise AnalysisError(f"{path}: the bag holds no tail/state or motor/joint_state message")
