@@ -32,6 +32,8 @@ class ParameterSpec:
 
     ``minimum``/``maximum`` bound numbers (inclusive), ``choices`` lists the allowed strings,
     ``non_empty`` refuses an empty string, ``read_only`` parameters are fixed at start-up.
+    ``exclusive_minimum`` refuses the minimum itself, for quantities that must be above it (a
+    duration > 0); a ROS descriptor cannot say so and shows the range closed.
     """
 
     name: str
@@ -43,6 +45,7 @@ class ParameterSpec:
     choices: tuple[str, ...] = ()
     non_empty: bool = False
     read_only: bool = False
+    exclusive_minimum: bool = False
 
     @property
     def text(self) -> str:
@@ -73,9 +76,13 @@ class ParameterSpec:
             raise ParameterValueError(f"{self.name} must be a whole number, got {value!r}")
         low = -math.inf if self.minimum is None else self.minimum
         high = math.inf if self.maximum is None else self.maximum  # inf prints as "inf"
-        if not low <= number <= high:  # NaN too: it compares false
+        above_low = low < number if self.exclusive_minimum else low <= number
+        if not (above_low and number <= high):  # NaN too: it compares false
             unit = f" {self.unit}" if self.unit else ""
-            raise ParameterValueError(f"{self.name} = {number!r} is outside [{low}, {high}]{unit}")
+            opening = "(" if self.exclusive_minimum else "["
+            raise ParameterValueError(
+                f"{self.name} = {number!r} is outside {opening}{low}, {high}]{unit}"
+            )
         if not math.isfinite(number):  # an infinity where the range is open
             raise ParameterValueError(f"{self.name} must be finite, got {value!r}")
         return number

@@ -67,3 +67,11 @@ def test_not_finite_is_outside_a_range_and_refused_without_one():
     unbounded = ParameterSpec("offset", 0.0, "any offset")
     with pytest.raises(ParameterValueError, match="offset must be finite"):
         unbounded.check(math.inf)
+
+
+def test_an_exclusive_minimum_refuses_the_minimum_itself():
+    duration = ParameterSpec("duration", 60.0, "run time", "s", 0.0, exclusive_minimum=True)
+    assert duration.check(1e-9) == 1e-9
+    for value in (0.0, -1.0, math.nan):
+        with pytest.raises(ParameterValueError, match=r"duration = .* is outside \(0.0, inf\] s"):
+            duration.check(value)
