@@ -2,7 +2,7 @@
 
 :func:`pure_modules` lists a package's modules (subpackages included) that do not import ROS
 (the nodes and their helpers are left to the ROS tests), each with whether its source has
-examples; :func:`run_examples` runs one module's and returns what doctest reports.
+examples; :func:`check_examples` runs one module's and fails if one fails or none ran.
 """
 
 from __future__ import annotations
@@ -37,3 +37,14 @@ def run_examples(name: str) -> doctest.TestResults:
     """Run the examples of module ``name`` (ELLIPSIS on), reporting nothing itself."""
     module = importlib.import_module(name)
     return doctest.testmod(module, optionflags=doctest.ELLIPSIS, verbose=False, report=False)
+
+
+def check_examples(name: str, has_examples: bool) -> None:
+    """Run module ``name``'s examples (see :func:`pure_modules`).
+
+    Raises:
+        AssertionError: an example failed, or a module with examples ran none.
+    """
+    result = run_examples(name)
+    assert result.failed == 0, f"{name}: {result.failed} of {result.attempted} examples failed"
+    assert result.attempted > 0 or not has_examples, f"{name} has examples, none ran"
