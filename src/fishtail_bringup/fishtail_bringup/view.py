@@ -230,7 +230,6 @@ def where_to_look(view: RerunView) -> str:
 def replay_bag(arguments: argparse.Namespace, view: RerunView, stop: threading.Event) -> int:
     """Replay the bag into ``view`` at its pace once a viewer looks; serve until stopped."""
     from fishtail_bringup.view_replay import BagReplay, ReplayError, fish_from_parameter_file
-    from fishtail_common.bag_types import suite_typestore
     from fishtail_common.parameter_files import default_parameter_file
 
     started = time.monotonic()
@@ -240,9 +239,13 @@ def replay_bag(arguments: argparse.Namespace, view: RerunView, stop: threading.E
 
     try:
         fish_config = arguments.fish_config or default_parameter_file("fish")
-        replay = BagReplay(arguments.bag, suite_typestore(), arguments.config,
-                           fish_from_parameter_file(fish_config), default_parameter_file,
-                           arguments.namespace)  # fmt: skip
+        replay = BagReplay(
+            arguments.bag,
+            arguments.config,
+            fish_from_parameter_file(fish_config),
+            default_parameter_file,
+            arguments.namespace,
+        )
         events = replay.events()
         first = next(events, None)  # opens and checks the bag before anyone waits for it
     except (ReplayError, LookupError) as error:

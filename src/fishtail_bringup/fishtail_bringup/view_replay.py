@@ -13,14 +13,14 @@ redrawn from the state as the nodes draw them:
   ``goal_pose``.
 
 A bag that holds ``tail/markers`` or ``fish/markers`` (recorded with ``--topics``) is drawn from
-those instead. No rclpy here: rosbags reads the bag.
+those instead. No rclpy here: :class:`~fishtail_common.bag_reading.BagFile` reads the bag.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +39,7 @@ from fishtail_bringup.view_scene import (
     stamp_seconds,
     symmetry_primitives,
 )
+from fishtail_common.bag_reading import BagFile, topic_under, yaw_of_quaternion
 from fishtail_common.interface import (
     FISH_MARKERS,
     FISH_ODOM,
@@ -70,6 +71,8 @@ FISH_TAIL_COLOUR: Colour = (0.9, 0.3, 0.2, 1.0)
 FISH_LINE_M = 0.01
 
 MECHANISM_OF_CODE = {code: name for name, code in MECHANISM_CODES.items()}
+#: What a replay draws from.
+REPLAYED_TOPICS = (TAIL_STATE, TAIL_SYMMETRY, FISH_ODOM, TAIL_MARKERS, FISH_MARKERS, GOAL_POSE)
 
 
 class ReplayError(Exception):
@@ -113,7 +116,7 @@ class FishFromOdometry:
         pose = odometry.pose.pose
         x, y = float(pose.position.x), float(pose.position.y)
         q = pose.orientation
-        psi = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        psi = yaw_of_quaternion(float(q.x), float(q.y), float(q.z), float(q.w))
         self.path.append((x, y))
         drawn: list[Primitive] = [
             polyline(f"{FISH_ROOT}/body", body_to_world(self.outline, x, y, psi), BODY_COLOUR,
@@ -155,7 +158,6 @@ class BagReplay:
     def __init__(
         self,
         path: Path,
-        typestore: Any,
         tail_config: Path | None,
         fish: FishFromOdometry,
         default_config: Any,
@@ -164,19 +166,14 @@ class BagReplay:
         """Open nothing yet; ``default_config(mechanism)`` names a mechanism's parameter file.
 
         ``tail_config`` (or, without it, the default file of the mechanism that tail/state
-        records) gives the geometry the linkage is drawn with.
+        records) gives the geometry the linkage is drawn with; the topics are those under
+        ``namespace``.
         """
         self.path = path
-        self.typestore = typestore
         self.tail_config = tail_config
         self.default_config = default_config
         self.fish = fish
-        prefix = "/" + namespace.strip("/") if namespace.strip("/") else ""
-        self.topics = {
-            f"{prefix}/{topic.name}": topic.name
-            for topic in (TAIL_STATE, TAIL_SYMMETRY, FISH_ODOM, TAIL_MARKERS, FISH_MARKERS)
-        }
-        self.topics[f"{prefix}/{GOAL_POSE.name}"] = GOAL_POSE.name
+        self.namespace = namespace
         self.tail: TailFromState | None = None
         self.notes: list[str] = []
 
@@ -199,39 +196,33 @@ class BagReplay:
         The bag time is the receive time rosbag2 stores, from which the replay takes its pace;
         the stamp places the primitives on the view's time line.
         """
-        from rosbags.highlevel import AnyReader
-
-        try:
-            reader = AnyReader([self.path], default_typestore=self.typestore)
-            reader.open()
-        except Exception as error:  # noqa: BLE001 - rosbags raises many kinds on bad input
-            raise ReplayError(f"{self.path}: not a readable rosbag2 bag: {error}") from None
-        try:
-            connections = [c for c in reader.connections if c.topic in self.topics]
-            if not connections:
-                listing = ", ".join(sorted({c.topic for c in reader.connections})) or "none"
+        with BagFile(self.path, error=ReplayError) as bag:
+            names: dict[str, str] = {}  # the bag's topic -> the suite's name for it
+            for topic in REPLAYED_TOPICS:
+                picked = bag.pick(topic, self.namespace)
+                if picked is not None:
+                    names[picked] = topic.name
+            if not names:
+                wanted = sorted(topic_under(self.namespace, t.name) for t in REPLAYED_TOPICS)
                 raise ReplayError(
-                    f"{self.path}: nothing to show (topics: {listing}; wanted "
-                    f"{', '.join(sorted(self.topics))})"
+                    f"{self.path}: nothing to show (topics: {bag.listing()}; wanted "
+                    f"{', '.join(wanted)})"
                 )
-            names = {self.topics[c.topic] for c in connections}
-            yield from self._events(reader, connections, names)
-        finally:
-            reader.close()
+            yield from self._events(bag.messages(bag.connections_of(*names)), names)
 
     def _events(
-        self, reader: Any, connections: list[Any], names: set[str]
+        self, messages: Iterable[tuple[Any, int, Any]], names: dict[str, str]
     ) -> Iterator[tuple[float, float | None, list[Primitive]]]:
-        draw_tail = TAIL_MARKERS.name not in names
-        draw_fish = FISH_MARKERS.name not in names
+        """The primitives of ``messages`` (connection, receive ns, message) of the topics named."""
+        draw_tail = TAIL_MARKERS.name not in names.values()
+        draw_fish = FISH_MARKERS.name not in names.values()
         plots = TailPlots()
         next_plot = next_tail = next_fish = -math.inf
         tip: tuple[float, float] | None = None
         bag_s = 0.0
-        for connection, timestamp_ns, raw in reader.messages(connections=connections):
+        for connection, timestamp_ns, message in messages:
             bag_s = timestamp_ns * 1e-9
-            name = self.topics[connection.topic]
-            message = reader.deserialize(raw, connection.msgtype)
+            name = names[connection.topic]
             if name == TAIL_STATE.name:
                 plots.add(message)
                 tip = (float(message.tip.x), float(message.tip.y))

@@ -7,8 +7,8 @@ wrote; all open them here:
 
 * :func:`bag_typestore`: the Jazzy typestore, plus the definitions the bag carries, plus the
   installed fishtail_msgs (for what the bag does not carry);
-* :func:`pick_topic`: the topic of a type named ``<namespace>/<suffix>`` (a suite recorded under a
-  namespace has its topics there);
+* :func:`pick_topic`: the topic of a type named ``<namespace>/<suffix>`` (:func:`topic_under`; a
+  suite recorded under a namespace has its topics there);
 * :class:`BagFile`: an open bag whose messages are deserialised one at a time as they are read, so
   that a reader keeps only what it takes from each (no list of messages); a split bag
   (``fishtail-record`` writes one storage file per segment) is read as one;
@@ -67,6 +67,11 @@ def bag_typestore(connections: Sequence[Any]) -> Any:
     return store
 
 
+def topic_under(namespace: str, suffix: str) -> str:
+    """The absolute name of the suite's topic ``suffix`` under ``namespace`` ("" for none)."""
+    return "/" + "/".join(p for p in (namespace.strip("/"), suffix) if p)
+
+
 def pick_topic(
     connections: Sequence[Any],
     msgtype: str,
@@ -82,7 +87,7 @@ def pick_topic(
     """
     topics = sorted({c.topic for c in connections if c.msgtype == msgtype})
     if namespace is not None:
-        wanted = "/" + "/".join(p for p in (namespace.strip("/"), suffix) if p)
+        wanted = topic_under(namespace, suffix)
         return wanted if wanted in topics else None
     named = [t for t in topics if t == "/" + suffix or t.endswith("/" + suffix)]
     candidates = named or (topics if any_name else [])
