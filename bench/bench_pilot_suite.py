@@ -117,7 +117,7 @@ PILOT_WRAPPER = r"""
 import atexit, importlib, json, sys, time
 
 path, module_name, *rest = sys.argv[1:]
-from fishtail_swim.nodes import pilot_node
+from fishtail_pilot import node as pilot_node
 
 node_class = pilot_node.PilotNode
 odom = []  # entry time ns, stamp ns, in turn
