@@ -139,18 +139,21 @@ def spaced_range(
 
 
 def _shown(value: ParameterValue) -> str:
+    """A value as the help shows it: whole numbers in full, others to 6 digits."""
     if isinstance(value, bool):
         return str(value).lower()
-    return f"{value:.6g}" if isinstance(value, float) else str(value)
+    if isinstance(value, float) and not value.is_integer():
+        return f"{value:.6g}"
+    return str(int(value)) if isinstance(value, float) else str(value)
 
 
 def _bounds(spec: ParameterSpec) -> str:
-    """The range in words: ``4 to 100000``, ``> 0``, ``>= 0, <= 50``; empty without one."""
+    """The range in words: ``4 to 100000``, ``> 0``, ``> 0, <= 50``; empty without one."""
     low, high = spec.minimum, spec.maximum
     if low is not None and high is not None and not spec.exclusive_minimum:
-        return f"{low:g} to {high:g}"
-    parts = [] if low is None else [f"{'>' if spec.exclusive_minimum else '>='} {low:g}"]
-    return ", ".join(parts + ([] if high is None else [f"<= {high:g}"]))
+        return f"{_shown(low)} to {_shown(high)}"
+    parts = [] if low is None else [f"{'>' if spec.exclusive_minimum else '>='} {_shown(low)}"]
+    return ", ".join(parts + ([] if high is None else [f"<= {_shown(high)}"]))
 
 
 def parameter_help(spec: ParameterSpec, with_default: bool = True) -> str:

@@ -14,11 +14,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from fishtail_common.command_line import OneLineErrorParser, add_parameter_flags
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.swimming import SWIMMING_PARAMETERS
 from fishtail_kinematics.offline.analysis import analyse
 from fishtail_kinematics.offline.analysis_report import format_report
-from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
 from fishtail_kinematics.offline.recording import AnalysisError
 
 PROGRAM = "fishtail-analyse"
@@ -53,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     swimming = parser.add_argument_group(
         "swimming figures (override --config; defaults are the monitor's)"
     )
-    add_parameter_flags(swimming, SWIMMING_PARAMETERS, float)
+    add_parameter_flags(swimming, SWIMMING_PARAMETERS)
     return parser
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -17,7 +18,15 @@ from typing import TextIO
 
 import numpy as np
 
+from fishtail_common.command_line import (
+    OneLineErrorParser,
+    UsageError,
+    add_parameter_flags,
+    add_parameter_options,
+    finite_number,
+)
 from fishtail_common.parameter_files import ParameterFileError, load_parameter_file
+from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine import design
 from fishtail_kinematics.engine.errors import FishtailKinematicsError, PivotShiftError
 from fishtail_kinematics.engine.geometry import (
@@ -33,69 +42,20 @@ from fishtail_kinematics.engine.parameters import (
     geometry_parameters_in,
 )
 from fishtail_kinematics.offline import animation, plots
-from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
 from fishtail_kinematics.offline.table_columns import FIELD_OF_COLUMN, table_columns
 
 PROGRAM = "fishtail-kinematics"
 REPORT_SPEED_RAD_S = 4.0
-
-
-class UsageError(Exception):
-    """Bad command-line input; reported as one line with exit status 2."""
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if not 2 <= value <= 10_000_000:
-        raise argparse.ArgumentTypeError(f"must be between 2 and 10000000, got {value}")
-    return value
-
-
-def _speed(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(
-            f"carrier speed must be finite and >= 0 rad/s (the motor turns one way), got {text}"
-        )
-    return value
-
-
-def _frame_count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if not 2 <= value <= animation.MAX_FRAMES:
-        raise argparse.ArgumentTypeError(
-            f"must be between 2 and {animation.MAX_FRAMES}, got {value}"
-        )
-    return value
-
-
-def _frame_rate(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and 0.0 < value <= animation.MAX_FPS):
-        raise argparse.ArgumentTypeError(
-            f"must be > 0 and <= {animation.MAX_FPS:g} frames/s (GIF delays are whole "
-            f"centiseconds), got {text}"
-        )
-    return value
-
-
-def _number(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+#: The options of a cycle's sampling and its GIF (the geometry's are the engine's specs).
+SAMPLES = ParameterSpec("samples", 36, "angles k*2pi/N over a revolution", "", 2, 10_000_000)
+SPEED = ParameterSpec(
+    "speed", REPORT_SPEED_RAD_S, "carrier speed of the one-way motor", "rad/s", 0.0
+)
+FRAMES = ParameterSpec("frames", 72, "frames per revolution", "", 2, animation.MAX_FRAMES)
+FPS = ParameterSpec(
+    "fps", 24.0, "GIF frame rate; its delays are whole centiseconds", "frames/s", 0.0,
+    animation.MAX_FPS, exclusive_minimum=True,
+)  # fmt: skip
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -105,25 +65,24 @@ def build_parser() -> argparse.ArgumentParser:
     group.add_argument(
         "--config", type=Path, help="ROS 2 parameter file, e.g. config/oscillatory.yaml"
     )
-    group.add_argument("--" + MECHANISM.name, choices=MECHANISM.choices, help=MECHANISM.text)
-    add_parameter_flags(group, GEOMETRY_PARAMETERS, _number)
+    add_parameter_options(group, [MECHANISM], optional=True)
+    add_parameter_flags(group, GEOMETRY_PARAMETERS)
     parser = OneLineErrorParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     table = commands.add_parser("table", parents=[geometry], help="one cycle as CSV")
-    table.add_argument("--samples", type=_positive_int, default=36, help="angles k*2pi/N (36)")
-    table.add_argument("--speed", type=_speed, default=REPORT_SPEED_RAD_S, help="carrier rad/s (4)")
+    add_parameter_options(table, [SAMPLES, SPEED])
     table.add_argument("--output", type=Path, help="write the CSV here instead of stdout")
     plot = commands.add_parser("plot", parents=[geometry], help="the report's figures as PNG")
-    plot.add_argument("--samples", type=_positive_int, default=720)
-    plot.add_argument("--speed", type=_speed, default=REPORT_SPEED_RAD_S, help="carrier rad/s (4)")
+    add_parameter_options(plot, [dataclasses.replace(SAMPLES, default=720), SPEED])
     plot.add_argument("--output-dir", type=Path, default=Path("figures"))
     commands.add_parser("design", parents=[geometry], help="symmetric RS, range, assembly, mu")
     pivot = commands.add_parser(
         "pivot", parents=[geometry], help="swing bias and range against the pivot shift (Markdown)"
     )
     pivot.add_argument(
-        "--shifts-mm", type=_number, nargs="+", default=[-40.0, -30.0, -20.0, -10.0, 0.0, 10.0,
-        20.0, 30.0, 40.0], help="pivot shifts of S in mm, + towards the tail (-40 ... 40 by 10)",
+        "--shifts-mm", type=finite_number, nargs="+",
+        default=[-40.0, -30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0, 40.0],
+        help="pivot shifts of S in mm, + towards the tail (-40 ... 40 by 10)",
     )  # fmt: skip
     animate = commands.add_parser(
         "animate", parents=[geometry], help="one carrier revolution as an animated GIF"
@@ -132,10 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--output", dest="gif_path", type=Path, default=Path("tail.gif"),
         help="GIF file to write (tail.gif)",
     )  # fmt: skip
-    animate.add_argument(
-        "--frames", type=_frame_count, default=72, help="frames per revolution (72)"
-    )
-    animate.add_argument("--fps", type=_frame_rate, default=24.0, help="frames per second (24)")
+    add_parameter_options(animate, [FRAMES, FPS])
     return parser
 
 
