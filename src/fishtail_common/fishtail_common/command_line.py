@@ -102,9 +102,9 @@ def value_list(spec: ParameterSpec, text: str, most: int) -> list[float]:
     """
     values = [float(parse_value(spec, item.strip())) for item in text.split(",") if item.strip()]
     if not values:
-        raise argparse.ArgumentTypeError(f"no {spec.name} in {text!r}")
+        raise argparse.ArgumentTypeError(f"no {spec.description} in {text!r}")
     if len(values) > most:
-        raise argparse.ArgumentTypeError(f"at most {most} values of {spec.name}, got {len(values)}")
+        raise argparse.ArgumentTypeError(f"at most {most} values, got {len(values)}")
     return values
 
 

@@ -79,7 +79,7 @@ def test_a_list_checks_each_item_by_the_spec():
     assert value_list(SPEED, "2, 4", 5) == [2.0, 4.0]
     for text, words in [
         ("2,-4", "speed = -4.0 is outside"),
-        (",", "no speed"),
+        (",", "no carrier speed in ','"),
         ("1,2,3", "at most 2"),
     ]:
         with pytest.raises(argparse.ArgumentTypeError, match=words):

@@ -121,12 +121,12 @@ def test_a_long_path_is_followed_and_a_short_one_shown_whole(tmp_path):
     ("arguments", "words"),
     [
         (("--speed", 4, "--duration", 1.0), "shorter than one beat"),
-        (("--speed", 8, "--duration", 1.0, "--fps", 0), "frames per second must be in"),
-        (("--speed", 8, "--duration", 1.0, "--fps", 60), "frames per second must be in"),
-        (("--speed", 8, "--duration", 1.0, "--fps", "nan"), "not a finite number"),
+        (("--speed", 8, "--duration", 1.0, "--fps", 0), "fps = 0.0 is outside (0.0, 50.0]"),
+        (("--speed", 8, "--duration", 1.0, "--fps", 60), "fps = 60.0 is outside (0.0, 50.0]"),
+        (("--speed", 8, "--duration", 1.0, "--fps", "nan"), "fps = nan is outside"),
         (("--speed", 8, "--duration", 200, "--fps", 20), "count 4001, but a GIF takes 2 to 2000"),
         (("--speed", 8, "--duration", 1.0, "--fps", 0.5), "frame count 1,"),
-        (("--speed", 0, "--duration", 1.0), "carrier speed must be > 0"),
+        (("--speed", 0, "--duration", 1.0), "speed = 0.0 is outside (0.0, inf] rad/s"),
         (("--speed", 8), "--duration"),
     ],
 )

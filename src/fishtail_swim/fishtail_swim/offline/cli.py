@@ -8,6 +8,7 @@ ends with a one-line error and exit status 2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 import sys
@@ -18,7 +19,14 @@ from typing import TextIO
 import numpy as np
 
 from fishtail_common.bag_reading import BagError
-from fishtail_common.parameters import ParameterValueError
+from fishtail_common.command_line import (
+    OneLineErrorParser,
+    UsageError,
+    add_parameter_options,
+    spaced_range,
+    value_list,
+)
+from fishtail_common.parameters import ParameterSpec, ParameterValueError
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FloatArray
@@ -33,11 +41,7 @@ from fishtail_swim.offline.fit_free_body import (
 )
 from fishtail_swim.offline.inputs import (
     PROGRAM,
-    SwimParser,
-    UsageError,
     link_inertia_from_arguments,
-    number,
-    positive_number,
     swimmer_arguments,
     swimmer_from_arguments,
 )
@@ -48,6 +52,7 @@ from fishtail_swim.offline.motor_options import (
 )
 from fishtail_swim.offline.motor_sizing import size_motor
 from fishtail_swim.offline.motor_sizing_report import plot_torque_speed, write_sizing_report
+from fishtail_swim.offline.options import CARRIER_SPEED, MAX_VALUES, STEPS_PER_BEAT
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
 from fishtail_swim.offline.tables import Column, write_table
@@ -55,74 +60,47 @@ from fishtail_swim.offline.time_run import SUMMARY_BEATS, run_figures, run_from_
 from fishtail_swim.offline.turning import add_turning_parser, run_turning
 
 DEFAULT_SPEEDS = "2,4,8,12,16"
-#: Most carrier speeds one steady table computes (one batch).
-MAX_SPEEDS = 10_000
-
-
-def _carrier_speed(text: str) -> float:
-    value = number(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(
-            f"carrier speed must be > 0 rad/s (the fish needs a beating tail), got {text}"
-        )
-    return value
+#: How many carrier speeds --speed-range spreads from the first to the last.
+SPEED_COUNT = ParameterSpec("count", 5, "carrier speeds", "", 1, MAX_VALUES)
+#: The time of a run from rest.
+DURATION = ParameterSpec("duration", 60.0, "simulated time", "s", 0.0, exclusive_minimum=True)
+#: The options of an animation: a simulated run needs --speed and --duration, a recorded one
+#: takes a window (--start, --duration) and a gap.
+FPS = ParameterSpec(
+    "fps", 20.0, "frames per simulated or recorded second, played in real time",
+    "frames/s", 0.0, animate.MAX_FPS, exclusive_minimum=True,
+)  # fmt: skip
+ANIMATION_SPEED = dataclasses.replace(
+    CARRIER_SPEED, description="carrier speed, which a simulated run needs"
+)
+ANIMATION_DURATION = dataclasses.replace(
+    DURATION, description="time drawn, which a simulated run needs (a recording: to its end)"
+)
+START = ParameterSpec(
+    "start", 0.0, "where the GIF starts, after the first fish/odom sample", "s", 0.0
+)
+GAP = ParameterSpec(
+    "gap", recorded_run.DEFAULT_GAP_S, "fish/odom samples further apart than this are a gap: the "
+    "fish is not drawn there and its path is broken", "s", 0.0, exclusive_minimum=True,
+)  # fmt: skip
+#: Free-body runs of fit (with yaw rates): long enough for the figures' last beats.
+BEATS = ParameterSpec(
+    "beats", FREE_BODY_BEATS, "beats of each run from rest", "", SUMMARY_BEATS + 1, 100_000
+)
 
 
 def _speed_list(text: str) -> FloatArray:
-    speeds = [_carrier_speed(item.strip()) for item in text.split(",") if item.strip()]
-    if not speeds:
-        raise argparse.ArgumentTypeError(f"no carrier speeds in {text!r}")
-    if len(speeds) > MAX_SPEEDS:
-        raise argparse.ArgumentTypeError(f"at most {MAX_SPEEDS} speeds, got {len(speeds)}")
-    return np.array(speeds)
+    return np.array(value_list(CARRIER_SPEED, text, MAX_VALUES))
 
 
 def _speed_range(text: str) -> FloatArray:
-    parts = text.split(":")
-    if len(parts) != 3:
-        raise argparse.ArgumentTypeError(f"expected first:last:count, got {text!r}")
-    first, last = _carrier_speed(parts[0]), _carrier_speed(parts[1])
-    try:
-        count = int(parts[2])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"count is not an integer: {parts[2]!r}") from None
-    if not 1 <= count <= MAX_SPEEDS:
-        raise argparse.ArgumentTypeError(f"count must be 1 to {MAX_SPEEDS}, got {count}")
-    if last < first:
-        raise argparse.ArgumentTypeError(f"last speed {last:g} is below the first {first:g}")
-    return np.linspace(first, last, count)
-
-
-def _steps_per_beat(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if not 4 <= value <= 100_000:
-        raise argparse.ArgumentTypeError(f"must be between 4 and 100000, got {value}")
-    return value
-
-
-def _non_negative(text: str) -> float:
-    value = number(text)
-    if value < 0.0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
-    return value
-
-
-def _fps(text: str) -> float:
-    value = number(text)
-    if not 0.0 < value <= animate.MAX_FPS:
-        raise argparse.ArgumentTypeError(
-            f"frames per second must be in (0, {animate.MAX_FPS:g}], got {text}"
-        )
-    return value
+    return np.linspace(*spaced_range(CARRIER_SPEED, SPEED_COUNT, text))
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser (exposed for tests)."""
     swimmer = swimmer_arguments()
-    parser = SwimParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
+    parser = OneLineErrorParser(prog=PROGRAM, description=(__doc__ or "").splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True)
     steady = commands.add_parser(
         "steady", parents=[swimmer],
@@ -146,14 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     simulate = commands.add_parser(
         "simulate", parents=[swimmer], help="a time-stepped run from rest to CSV (and figures)"
     )
-    simulate.add_argument("--speed", type=_carrier_speed, default=4.0, help="carrier rad/s (4)")
-    simulate.add_argument(
-        "--duration", type=positive_number, default=60.0, help="simulated seconds (60)"
-    )
-    simulate.add_argument(
-        "--steps-per-beat", type=_steps_per_beat, default=32,
-        help="RK4 steps per tail beat (32); the step is the beat period over this",
-    )  # fmt: skip
+    add_parameter_options(simulate, [CARRIER_SPEED, DURATION, STEPS_PER_BEAT])
     simulate.add_argument("--output", type=Path, required=True, help="CSV file to write")
     simulate.add_argument("--figures", type=Path, metavar="DIR", help="write PNG figures here")
     animation = commands.add_parser(
@@ -166,40 +137,18 @@ def build_parser() -> argparse.ArgumentParser:
         "tail/state, goals from goal_pose). The bag does not carry the tail's geometry or the "
         "fish's size: --config and --fish (and their flags) give them, as for a simulated run.",
     )  # fmt: skip
-    animation.add_argument(
-        "--speed", type=_carrier_speed, help="carrier rad/s (a simulated run: required)"
-    )
-    animation.add_argument(
-        "--duration", type=positive_number,
-        help="seconds drawn (a simulated run: required; a recorded one: to its end)",
-    )  # fmt: skip
+    add_parameter_options(animation, [ANIMATION_SPEED, ANIMATION_DURATION], optional=True)
     animation.add_argument(
         "--output", type=Path,
         help="GIF file to write (a simulated run: required; a recorded one: <bag name>.gif here)",
     )  # fmt: skip
-    animation.add_argument(
-        "--fps", type=_fps, default=20.0,
-        help=f"frames per simulated or recorded second, at most {animate.MAX_FPS:g} (20); the GIF "
-        "plays in real time",
-    )  # fmt: skip
-    animation.add_argument(
-        "--steps-per-beat", type=_steps_per_beat, default=None,
-        help="RK4 steps per tail beat of a simulated run (32)",
-    )  # fmt: skip
+    add_parameter_options(animation, [FPS, STEPS_PER_BEAT])
     recorded = animation.add_argument_group("a recorded run")
     recorded.add_argument(
         "--bag", type=Path, metavar="DIR",
         help="rosbag2 bag (directory, .mcap or .db3) recorded by fishtail-record: draw it",
     )  # fmt: skip
-    recorded.add_argument(
-        "--start", type=_non_negative, default=0.0, metavar="S",
-        help="seconds after the first fish/odom sample where the GIF starts (0)",
-    )  # fmt: skip
-    recorded.add_argument(
-        "--gap", type=positive_number, default=recorded_run.DEFAULT_GAP_S, metavar="S",
-        help="fish/odom samples further apart than this are a gap: the fish is not drawn there "
-        f"and its path is broken ({recorded_run.DEFAULT_GAP_S:g})",
-    )  # fmt: skip
+    add_parameter_options(recorded, [START, GAP])
     recorded.add_argument(
         "--namespace", help="namespace the suite was recorded under (when the bag holds several)"
     )
@@ -209,19 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _beats(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if not SUMMARY_BEATS + 1 <= value <= 100_000:
-        raise argparse.ArgumentTypeError(
-            f"must be between {SUMMARY_BEATS + 1} and 100000, got {value}"
-        )
-    return value
-
-
-def _add_fit_parser(commands: argparse._SubParsersAction[SwimParser], swimmer: SwimParser) -> None:
+def _add_fit_parser(
+    commands: argparse._SubParsersAction[OneLineErrorParser], swimmer: OneLineErrorParser
+) -> None:
     fit = commands.add_parser(
         "fit", parents=[swimmer],
         help="fit C_D (and K_D, with yaw rates) to measured cruising speeds; write a fish file",
@@ -236,18 +175,13 @@ def _add_fit_parser(commands: argparse._SubParsersAction[SwimParser], swimmer: S
     )  # fmt: skip
     fit.add_argument("--csv", action="store_true", help="CSV instead of an aligned table")
     free = fit.add_argument_group("free-body runs (only with yaw rates)")
-    free.add_argument(
-        "--beats", type=_beats, default=FREE_BODY_BEATS,
-        help=f"beats of each run from rest ({FREE_BODY_BEATS})",
-    )  # fmt: skip
-    free.add_argument(
-        "--steps-per-beat", type=_steps_per_beat, default=FREE_BODY_STEPS_PER_BEAT,
-        help=f"RK4 steps per tail beat ({FREE_BODY_STEPS_PER_BEAT})",
-    )  # fmt: skip
+    add_parameter_options(
+        free, [BEATS, dataclasses.replace(STEPS_PER_BEAT, default=FREE_BODY_STEPS_PER_BEAT)]
+    )
 
 
 def _add_motor_parser(
-    commands: argparse._SubParsersAction[SwimParser], swimmer: SwimParser
+    commands: argparse._SubParsersAction[OneLineErrorParser], swimmer: OneLineErrorParser
 ) -> None:
     motor = commands.add_parser(
         "motor", parents=[swimmer],
@@ -369,8 +303,6 @@ def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
                           ("--output", arguments.output)):  # fmt: skip
         if value is None:
             raise UsageError(f"a simulated run needs {option} (or draw a recorded one: --bag DIR)")
-    if arguments.steps_per_beat is None:
-        arguments.steps_per_beat = 32
     swimmer = swimmer_from_arguments(arguments)
     step, steps = _run_steps(arguments)
     times = animate.frame_times(arguments.duration, arguments.fps)
@@ -402,9 +334,12 @@ def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
 
 def _animate_recording(arguments: argparse.Namespace, out: TextIO) -> None:
     """Read the bag's window into frames and write them as a GIF."""
-    for option, value in (("--speed", arguments.speed),
-                          ("--steps-per-beat", arguments.steps_per_beat)):  # fmt: skip
-        if value is not None:
+    simulated = {
+        "--speed": arguments.speed is not None,
+        "--steps-per-beat": arguments.steps_per_beat != STEPS_PER_BEAT.default,
+    }
+    for option, given in simulated.items():
+        if given:
             raise UsageError(f"{option} is for a simulated run, not with --bag")
     bag: Path = arguments.bag
     named = bag.resolve()

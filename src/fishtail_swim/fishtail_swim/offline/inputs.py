@@ -10,10 +10,15 @@ masses and moments of inertia (the motor's load) come from the tail's parameter 
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
-from typing import NamedTuple, NoReturn
+from typing import NamedTuple
 
+from fishtail_common.command_line import (
+    OneLineErrorParser,
+    UsageError,
+    add_parameter_flags,
+    add_parameter_options,
+)
 from fishtail_common.parameter_files import default_parameter_file, load_parameter_file
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
@@ -22,7 +27,6 @@ from fishtail_kinematics.engine.parameters import (
     geometry_from_parameters,
     geometry_parameters_in,
 )
-from fishtail_kinematics.offline.command_line import OneLineErrorParser, add_parameter_flags
 from fishtail_plant.fish.fish import FISH_PARAMETERS, FishParameters
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
 from fishtail_plant.values import link_inertia_from_values, read_fish_values
@@ -34,18 +38,6 @@ FISH_FILE = "fish"
 DEFAULT_MECHANISM = "oscillatory"
 
 
-class SwimParser(OneLineErrorParser):
-    """Usage errors of every command as ``fishtail-swim: error: ...``, with where the help is."""
-
-    def error(self, message: str) -> NoReturn:
-        """Print the one line and exit with status 2."""
-        self.exit(2, f"{PROGRAM}: error: {message} (see {self.prog} --help)\n")
-
-
-class UsageError(Exception):
-    """Bad command-line input; reported as one line with exit status 2."""
-
-
 class Swimmer(NamedTuple):
     """What a command swims: the fish's parameters and the engine's tail."""
 
@@ -53,39 +45,20 @@ class Swimmer(NamedTuple):
     tail: Tail
 
 
-def number(text: str) -> float:
-    """A finite float (NaN and infinities are refused here, ranges by the specs)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"not a finite number: {text!r}")
-    return value
-
-
-def positive_number(text: str) -> float:
-    """A finite float > 0."""
-    value = number(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
-    return value
-
-
-def swimmer_arguments() -> SwimParser:
+def swimmer_arguments() -> OneLineErrorParser:
     """The parent parser of the tail's and the fish's files and flags."""
-    parent = SwimParser(add_help=False)
+    parent = OneLineErrorParser(add_help=False)
     tail = parent.add_argument_group("tail geometry (SI units; flags override --config)")
     tail.add_argument(
         "--config", type=Path,
         help="kinematics parameter file (default config/oscillatory.yaml, or "
         "config/<mechanism>.yaml with --mechanism)",
     )  # fmt: skip
-    tail.add_argument("--" + MECHANISM.name, choices=MECHANISM.choices, help=MECHANISM.text)
-    add_parameter_flags(tail, GEOMETRY_PARAMETERS, number)
+    add_parameter_options(tail, [MECHANISM], optional=True)
+    add_parameter_flags(tail, GEOMETRY_PARAMETERS)
     fish = parent.add_argument_group("fish (SI units; flags override --fish)")
     fish.add_argument("--fish", type=Path, help="fish parameter file (default config/fish.yaml)")
-    add_parameter_flags(fish, FISH_PARAMETERS, number)
+    add_parameter_flags(fish, FISH_PARAMETERS)
     return parent
 
 

@@ -19,28 +19,30 @@ from pathlib import Path
 
 import numpy as np
 
+from fishtail_common.command_line import UsageError, add_parameter_flags, finite_number, value_list
+from fishtail_common.parameters import ParameterSpec
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
 from fishtail_plant.motor.dc_motor import DcMotorParameters
-from fishtail_swim.offline.inputs import UsageError, number, positive_number
 from fishtail_swim.offline.motor_sizing import DEFAULT_FREQUENCIES_HZ
+from fishtail_swim.offline.options import MAX_VALUES
 
-#: Options named after DcMotorParameters' fields: what they are, and the unit as a metavar.
+#: Options named after DcMotorParameters' fields: what they are, and their unit.
 _FIELDS = {
-    "supply_voltage_v": ("supply voltage, the armature's at PWM 255 [V]", "V"),
-    "gear_ratio": ("motor turns per carrier turn", "N"),
-    "gearbox_efficiency": ("gearbox efficiency, (0, 1]", "ETA"),
-    "resistance_ohm": ("armature resistance [ohm]", "OHM"),
-    "torque_constant_n_m_a": ("torque constant = back-EMF constant [N m/A]", "N_M/A"),
-    "rotor_inertia_kg_m2": ("rotor inertia at the motor shaft [kg m^2]", "KG_M^2"),
-    "viscous_friction_n_m_s": ("viscous friction at the motor shaft [N m s/rad]", "N_M_S"),
-    "coulomb_friction_n_m": ("Coulomb (and breakaway) friction at the motor shaft [N m]", "N_M"),
+    "supply_voltage_v": ("supply voltage, the armature's at PWM 255", "V"),
+    "gear_ratio": ("motor turns per carrier turn", ""),
+    "gearbox_efficiency": ("gearbox efficiency, (0, 1]", ""),
+    "resistance_ohm": ("armature resistance", "ohm"),
+    "torque_constant_n_m_a": ("torque constant = back-EMF constant", "N m/A"),
+    "rotor_inertia_kg_m2": ("rotor inertia at the motor shaft", "kg m^2"),
+    "viscous_friction_n_m_s": ("viscous friction at the motor shaft", "N m s/rad"),
+    "coulomb_friction_n_m": ("Coulomb (and breakaway) friction at the motor shaft", "N m"),
 }
 #: Set by the electrical constants; derived from the datasheet figures otherwise.
 _ELECTRICAL = ("resistance_ohm", "torque_constant_n_m_a")
 _RPM = 2.0 * math.pi / 60.0
-#: Most beat frequencies one table takes.
-MAX_FREQUENCIES = 10_000
+#: One item of --frequencies.
+FREQUENCY = ParameterSpec("frequency_hz", 1.0, "beat frequency", "Hz", 0.0, exclusive_minimum=True)
 
 
 def _option(name: str) -> str:
@@ -52,15 +54,14 @@ def _defaults() -> dict[str, float]:
     return {field.name: field.default for field in fields if isinstance(field.default, float)}
 
 
+def _motor_specs() -> list[ParameterSpec]:
+    """The motor's options as specs, their defaults DcMotorParameters' (which checks them)."""
+    defaults = _defaults()
+    return [ParameterSpec(name, defaults[name], *_FIELDS[name]) for name in _FIELDS]
+
+
 def _frequency_list(text: str) -> FloatArray:
-    frequencies = [positive_number(item.strip()) for item in text.split(",") if item.strip()]
-    if not frequencies:
-        raise argparse.ArgumentTypeError(f"no beat frequencies in {text!r}")
-    if len(frequencies) > MAX_FREQUENCIES:
-        raise argparse.ArgumentTypeError(
-            f"at most {MAX_FREQUENCIES} frequencies, got {len(frequencies)}"
-        )
-    return np.array(frequencies)
+    return np.array(value_list(FREQUENCY, text, MAX_VALUES))
 
 
 def check_figure_path(path: Path) -> None:
@@ -93,29 +94,25 @@ def add_motor_arguments(parser: argparse.ArgumentParser) -> None:
         "--figure", type=Path, metavar="FILE.png",
         help="write the torque-speed figure at the carrier (motor line, load, limits) here",
     )  # fmt: skip
-    defaults = _defaults()
     motor = parser.add_argument_group(
         "motor (SI units; default: DcMotorParameters, a Pololu 37D 12 V with its 30:1 gearbox)"
     )
-    for name, (text, unit) in _FIELDS.items():
-        motor.add_argument(
-            _option(name), type=number, metavar=unit, help=f"{text} ({defaults[name]:g})"
-        )
+    add_parameter_flags(motor, _motor_specs())
     datasheet = parser.add_argument_group(
         "motor from its datasheet (instead of --resistance-ohm and --torque-constant-n-m-a): "
         "both figures at the carrier at --supply-voltage-v; friction is 0 unless given"
     )
     datasheet.add_argument(
-        "--stall-torque-n-m", type=number, metavar="N_M",
+        "--stall-torque-n-m", type=finite_number, metavar="N_M",
         help="stall torque at the gearbox output [N m]",
     )  # fmt: skip
     speed = datasheet.add_mutually_exclusive_group()
     speed.add_argument(
-        "--no-load-speed-rad-s", type=number, metavar="RAD/S",
+        "--no-load-speed-rad-s", type=finite_number, metavar="RAD/S",
         help="no-load speed of the gearbox output [rad/s]",
     )  # fmt: skip
     speed.add_argument(
-        "--no-load-speed-rpm", type=number, metavar="RPM",
+        "--no-load-speed-rpm", type=finite_number, metavar="RPM",
         help="no-load speed of the gearbox output [rpm]",
     )  # fmt: skip
 

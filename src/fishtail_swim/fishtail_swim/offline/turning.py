@@ -10,14 +10,22 @@ Yaw rates are counter-clockwise positive (a left turn, REP 103); radii are signe
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import NamedTuple, TextIO
 
 import numpy as np
 
+from fishtail_common.command_line import (
+    OneLineErrorParser,
+    UsageError,
+    add_parameter_options,
+    spaced_range,
+    value_list,
+)
+from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine.carrier_profile import MAX_DEPTH
 from fishtail_pilot.steering_map import (
     PHASE_COUNT,
@@ -38,14 +46,9 @@ from fishtail_plant.fish.steady_turn import (
     SteadyTurn,
     TurnSettings,
 )
-from fishtail_swim.offline.inputs import (
-    PROGRAM,
-    SwimParser,
-    UsageError,
-    number,
-    swimmer_from_arguments,
-)
+from fishtail_swim.offline.inputs import PROGRAM, swimmer_from_arguments
 from fishtail_swim.offline.motor_options import check_figure_path
+from fishtail_swim.offline.options import CARRIER_SPEED, MAX_VALUES, STEPS_PER_BEAT
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.tables import Column, write_table
 from fishtail_swim.offline.turning_figure import plot_turning
@@ -53,57 +56,39 @@ from fishtail_swim.offline.turning_figure import plot_turning
 MEANS = ("both", "modulation", "pivot")
 DEFAULT_DEPTHS = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9"
 DEFAULT_PIVOT_SHIFTS = f"{-PIVOT_STROKE_M:g}:{PIVOT_STROKE_M:g}:{PIVOT_COUNT}"
+#: The options of the runs (the carrier speed and the steps a beat are every run's).
+SPEED = dataclasses.replace(
+    CARRIER_SPEED, description="mean carrier speed, on which r/f, U/f and the radius do not depend"
+)
+PHASES = ParameterSpec(
+    "phases", PHASE_COUNT, "phases of the scan, evenly over a revolution", "", 3, 360
+)
+BEATS = ParameterSpec(
+    "beats", TURN_BEATS, f"beats from rest; the figures are over the last {AVERAGE_BEATS}", "",
+    AVERAGE_BEATS + 1, 100_000,
+)  # fmt: skip
+#: One item of --depths (depth 0 is always run).
+DEPTH = ParameterSpec(
+    "depth", MAX_DEPTH, "modulation depth", "", 0.0, MAX_DEPTH, exclusive_minimum=True
+)
+#: The ends and the count of --pivot-shifts.
+PIVOT_SHIFT = ParameterSpec("pivot_shift_m", 0.0, "pivot shift from the design position", "m")
+SHIFT_COUNT = ParameterSpec("count", PIVOT_COUNT, "pivot shifts", "", 2, 1000)
 
 
 def _depth_list(text: str) -> FloatArray:
-    depths = [number(item.strip()) for item in text.split(",") if item.strip()]
-    if not depths:
-        raise argparse.ArgumentTypeError(f"no depths in {text!r}")
-    if not all(0.0 < depth <= MAX_DEPTH for depth in depths):
-        raise argparse.ArgumentTypeError(
-            f"depths must be in (0, {MAX_DEPTH:g}] (depth 0 is always run), got {text}"
-        )
-    return np.unique(depths)
+    return np.unique(value_list(DEPTH, text, MAX_VALUES))
 
 
 def _shift_range(text: str) -> FloatArray:
-    parts = text.split(":")
-    if len(parts) != 3:
-        raise argparse.ArgumentTypeError(f"expected low:high:count in metres, got {text!r}")
-    low, high = number(parts[0]), number(parts[1])
-    try:
-        count = int(parts[2])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"count is not an integer: {parts[2]!r}") from None
-    if not 2 <= count <= 1000 or not low < high:
-        raise argparse.ArgumentTypeError(f"need low < high and a count of 2 to 1000, got {text!r}")
+    shifts = np.linspace(*spaced_range(PIVOT_SHIFT, SHIFT_COUNT, text, "LOW:HIGH:COUNT"))
     # Rounded to a nanometre (and -0 made 0), so that a shift meant to be 0 prints as 0, not as
     # linspace's -1e-17.
-    return np.round(np.linspace(low, high, count), 9) + 0.0
-
-
-def _bounded_int(low: int, high: int) -> Callable[[str], int]:
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be between {low} and {high}, got {value}")
-        return value
-
-    return parse
-
-
-def _mean_speed(text: str) -> float:
-    value = number(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"mean carrier speed must be > 0 rad/s, got {text}")
-    return value
+    return np.round(shifts, 9) + 0.0
 
 
 def add_turning_parser(
-    commands: argparse._SubParsersAction[SwimParser], swimmer: SwimParser
+    commands: argparse._SubParsersAction[OneLineErrorParser], swimmer: OneLineErrorParser
 ) -> None:
     """The ``turning`` subcommand and its options."""
     turning = commands.add_parser(
@@ -114,33 +99,22 @@ def add_turning_parser(
         "batch: a phase scan of the modulation at the deepest depth, each depth at the strongest "
         "phase each way, each pivot shift with the carrier unmodulated.",
     )  # fmt: skip
-    turning.add_argument(
-        "--speed", type=_mean_speed, default=4.0,
-        help="mean carrier speed [rad/s] (4); r/f, U/f and the radius do not depend on it",
-    )  # fmt: skip
+    add_parameter_options(turning, [SPEED])
     turning.add_argument("--means", choices=MEANS, default="both", help="what to tabulate (both)")
     turning.add_argument(
         "--depths", type=_depth_list, default=_depth_list(DEFAULT_DEPTHS), metavar="D1,D2,...",
         help=f"modulation depths, each way ({DEFAULT_DEPTHS}); the phase scan is at the deepest",
     )  # fmt: skip
-    turning.add_argument(
-        "--phases", type=_bounded_int(3, 360), default=PHASE_COUNT,
-        help=f"phases of the scan, evenly over a revolution ({PHASE_COUNT})",
-    )  # fmt: skip
+    add_parameter_options(turning, [PHASES])
     turning.add_argument(
         "--pivot-shifts", type=_shift_range, default=_shift_range(DEFAULT_PIVOT_SHIFTS),
         metavar="LOW:HIGH:COUNT",
         help=f"pivot shifts [m] from the design position, + towards the tail "
         f"({DEFAULT_PIVOT_SHIFTS}); within the tail's assembly range",
     )  # fmt: skip
-    turning.add_argument(
-        "--beats", type=_bounded_int(AVERAGE_BEATS + 1, 100_000), default=TURN_BEATS,
-        help=f"beats from rest; the figures are over the last {AVERAGE_BEATS} ({TURN_BEATS})",
-    )  # fmt: skip
-    turning.add_argument(
-        "--steps-per-beat", type=_bounded_int(4, 100_000), default=TURN_STEPS_PER_BEAT,
-        help=f"RK4 steps per beat ({TURN_STEPS_PER_BEAT})",
-    )  # fmt: skip
+    add_parameter_options(
+        turning, [BEATS, dataclasses.replace(STEPS_PER_BEAT, default=TURN_STEPS_PER_BEAT)]
+    )
     turning.add_argument("--csv", action="store_true", help="CSV instead of aligned tables")
     turning.add_argument(
         "--figure", type=Path, metavar="FILE.png",

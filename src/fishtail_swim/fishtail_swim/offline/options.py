@@ -1,0 +1,16 @@
+"""The options that several ``fishtail-swim`` commands share, as parameter specs.
+
+A command that means something else by one of them says so with :func:`dataclasses.replace`
+(its own default or text); the name, unit and range stay these.
+"""
+
+from __future__ import annotations
+
+from fishtail_common.parameters import ParameterSpec
+
+#: The carrier speed of a run: the fish needs a beating tail.
+CARRIER_SPEED = ParameterSpec("speed", 4.0, "carrier speed", "rad/s", 0.0, exclusive_minimum=True)
+#: RK4 steps per tail beat of a time-stepped run; the step is the beat period over this.
+STEPS_PER_BEAT = ParameterSpec("steps_per_beat", 32, "RK4 steps per tail beat", "", 4, 100_000)
+#: Most values one list option (carrier speeds, beat frequencies, depths) takes: one batch.
+MAX_VALUES = 10_000
