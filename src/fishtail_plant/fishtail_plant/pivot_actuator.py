@@ -1,14 +1,9 @@
 """The pivot actuator: a lead screw that shifts the tail's pivot S along the body axis.
 
-The fish's second means of steering (beside the carrier's speed profile): moving S shifts the
-tail's swing. The actuator is a slow positioning axis: it runs at a constant speed towards its
-target and stops there, and its travel is the stroke [-stroke, +stroke] about the design position
-(position s in metres, + towards the tail). The motion is exact in closed form, so the model needs
-no stepping: :meth:`PivotActuator.state` gives s and ds/dt at any time after the last command.
-
-A command beyond the stroke is carried out to the stroke's end and reported as clipped
-(:class:`PivotCommandOutcome`); a command that is not a finite number is refused and the actuator
-keeps going where it was going. Plain Python.
+The fish's second means of steering, simulated beside the driver's carrier: a slow positioning
+axis that runs at a constant speed towards its target within its stroke, exact in closed form
+(:meth:`PivotActuator.state` at any time, no stepping). Topics, parameters and the board-side
+design: docs/serial.md ("The pivot actuator").
 
 >>> pivot = PivotActuator(PivotLimits(stroke_m=0.03, speed_m_s=0.01))
 >>> pivot.command(0.02, now_s=0.0).target_m
@@ -45,7 +40,11 @@ PIVOT_SPEED = ParameterSpec(
 
 @dataclasses.dataclass(frozen=True)
 class PivotLimits:
-    """Half the travel [m] about the design position, and the screw's speed [m/s]."""
+    """Half the travel [m] about the design position, and the screw's speed [m/s].
+
+    Raises:
+        ValueError: a stroke or speed that is not finite and > 0.
+    """
 
     stroke_m: float = float(PIVOT_STROKE.default)
     speed_m_s: float = float(PIVOT_SPEED.default)
@@ -78,10 +77,14 @@ class PivotCommandOutcome:
 
 
 class PivotActuator:
-    """Position, target and the move in progress; see the module docstring."""
+    """Position, target and the move in progress of one lead screw."""
 
     def __init__(self, limits: PivotLimits, position_m: float = 0.0, time_s: float = 0.0) -> None:
-        """At rest at ``position_m`` (within the stroke) at ``time_s``."""
+        """At rest at ``position_m`` (within the stroke) at ``time_s``.
+
+        Raises:
+            ValueError: a position that is not finite or outside the stroke.
+        """
         if not (math.isfinite(position_m) and abs(position_m) <= limits.stroke_m):
             raise ValueError(
                 f"position_m = {position_m!r} is outside the stroke of +-{limits.stroke_m:g} m"
@@ -110,7 +113,11 @@ class PivotActuator:
         return self._start_s + abs(self.target_m - self._start_m) / self.limits.speed_m_s
 
     def command(self, position_m: float, now_s: float) -> PivotCommandOutcome:
-        """Head for ``position_m`` from wherever the actuator is at ``now_s``."""
+        """Head for ``position_m`` from wherever the actuator is at ``now_s``.
+
+        Beyond the stroke it heads for the stroke's end (``clipped``); a non-finite position is
+        refused (``accepted`` False) and the move in progress goes on. Neither raises.
+        """
         stroke = self.limits.stroke_m
         if not math.isfinite(position_m):
             return PivotCommandOutcome(

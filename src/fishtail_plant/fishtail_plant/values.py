@@ -64,19 +64,28 @@ def read_only_load_parameters() -> tuple[ParameterSpec, ...]:
 def tail_from_values(values: Mapping[str, object]) -> Tail:
     """The engine's tail of the geometry in ``values`` (other names are ignored).
 
-    Raises the engine's error, with its reason, for a value out of range or a linkage that
-    cannot assemble.
+    Raises:
+        FishtailKinematicsError: the engine's, with its reason: a value out of range
+            (``ParameterError``) or a linkage that cannot assemble (``AssemblyError``, ...).
     """
     return make_tail(geometry_from_parameters(geometry_parameters_in(values)))
 
 
 def link_inertia_from_values(values: Mapping[str, object]) -> LinkInertia:
-    """The links' masses and moments of inertia in ``values`` (others keep their defaults)."""
+    """The links' masses and moments of inertia in ``values`` (others keep their defaults).
+
+    Raises:
+        ParameterError: a mass or moment of inertia out of range.
+    """
     return link_inertia_from_parameters(inertia_parameters_in(values))
 
 
 def fish_from_values(values: Mapping[str, object]) -> FishParameters:
-    """The fish of the fish parameters in ``values`` (others keep their defaults)."""
+    """The fish of the fish parameters in ``values`` (others keep their defaults).
+
+    Raises:
+        FishParameterError: a value out of range or not a number.
+    """
     return FishParameters.from_values(
         {name: value for name, value in values.items() if name in FISH_PARAMETERS_BY_NAME}
     )
@@ -128,7 +137,11 @@ def read_fish_values(path: str | Path) -> dict[str, float]:
 
 
 def load_fish_parameters(path: str | Path) -> FishParameters:
-    """The fish the file at ``path`` describes (names not in the file keep their defaults)."""
+    """The fish the file at ``path`` describes (names not in the file keep their defaults).
+
+    Raises:
+        FishConfigError: as :func:`read_fish_values`.
+    """
     return FishParameters.from_values(read_fish_values(path))
 
 

@@ -1,14 +1,10 @@
 """Swimming figures of a trajectory over whole beats, and the cycle-average steady speed.
 
-Definitions (docs/swimming-dynamics.md): the mean speed Ū is the distance travelled by C over whole
-beats divided by their duration, measured beat end to beat end (so the wiggle inside a beat does
-not count); the mean thrust is <F_T,x> over the beats; the tail power P = -<F_T . (-Tx_dot,
-Ty_dot)>; the Froude efficiency <F_T,x> Ū / P; the Strouhal number f A / Ū with A the tip's peak-
-to-peak lateral excursion. The turning radius is that of the circle through the beat-end positions:
-R = chord / (2 sin(dpsi/2)) per beat, signed (> 0 turning left, inf swimming straight).
-
-Beat boundaries must fall on recorded samples: the recording interval has to divide every fish's
-beat period (choose the step as period / an integer); otherwise :class:`BeatAlignmentError`.
+What the command line, the steering tables and the checks report of a run: Ū, thrust, tail
+power, Froude efficiency, St and the turning radius, all over whole beats so that the wiggle
+within a beat does not count. Beat ends must fall on recorded samples (a step that divides the
+beat period). Definitions: docs/swimming-dynamics.md ("The report's mechanisms with the default
+fish"; the steady speed under "Checks").
 
 >>> from fishtail_plant.fish.tail_drive import SinusoidalTailDrive
 >>> drive = SinusoidalTailDrive(0.2, 0.0, np.array([0.2, 0.4]), 2 * np.pi)
@@ -54,7 +50,12 @@ class BeatWindow(NamedTuple):
 
 
 def beat_window(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int) -> BeatWindow:
-    """The last ``beats`` whole beats (from t = 0, one per period) recorded for each fish."""
+    """The last ``beats`` whole beats (from t = 0, one per period) recorded for each fish.
+
+    Raises:
+        BeatAlignmentError: the recording interval does not divide a beat period, or the
+            trajectory holds fewer than ``beats`` whole beats (or ``beats`` < 1).
+    """
     period = np.broadcast_to(np.asarray(beat_period_s, dtype=float), trajectory.state.shape[1:2])
     per_beat = period / trajectory.step_s
     samples_per_beat = np.rint(per_beat).astype(int)
@@ -98,7 +99,11 @@ class BeatMeans(NamedTuple):
 
 
 def beat_means(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int) -> BeatMeans:
-    """Ū, <u>, <v>, <r>, the heading change per beat and the turning radius over the last beats."""
+    """Ū, <u>, <v>, <r>, the heading change per beat and the turning radius over the last beats.
+
+    Raises:
+        BeatAlignmentError: as :func:`beat_window`.
+    """
     window = beat_window(trajectory, beat_period_s, beats)
     fish = np.arange(trajectory.state.shape[1])
     ends = trajectory.state[window.indices, fish[None, :]]
@@ -122,7 +127,11 @@ def beat_means(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int)
 
 
 def turning_radius(trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int) -> FloatArray:
-    """Signed radius of the circle the beat-end positions lie on (> 0 left, inf straight)."""
+    """Signed radius of the circle the beat-end positions lie on (> 0 left, inf straight).
+
+    Raises:
+        BeatAlignmentError: as :func:`beat_window`.
+    """
     return beat_means(trajectory, beat_period_s, beats).turning_radius_m
 
 
@@ -149,7 +158,11 @@ def tail_power(force: GeneralisedForce, tail: TailSample) -> FloatArray:
 def tail_figures(
     model: SwimModel, trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int
 ) -> TailFigures:
-    """<F_T,x>, P_tail, eta = <F_T,x> Ū / P_tail, A and St = f A / Ū over the last beats."""
+    """<F_T,x>, P_tail, eta = <F_T,x> Ū / P_tail, A and St = f A / Ū over the last beats.
+
+    Raises:
+        BeatAlignmentError: as :func:`beat_window`.
+    """
     window = beat_window(trajectory, beat_period_s, beats)
     flow, _, tail = model.forces(trajectory.time_s[:, None], trajectory.state)
     force = flow.force
@@ -201,6 +214,9 @@ def steady_surge_speed(
     With v = r = 0 the trailing-edge force is a quadratic in U (v_T is affine in U), so its cycle
     mean a + b U + c U² follows exactly from the means at U = 0, 1, -1 m/s and the balance is a
     quadratic equation: no iteration.
+
+    Raises:
+        NoSteadySpeedError: a fish whose cycle-mean thrust never balances its drag at U > 0.
     """
     at_rest, ahead, astern = (
         cycle_mean_tail_force(drive, fish, speed, beat_period_s, samples)

@@ -1,12 +1,8 @@
 """The fish's parameters: specs (each default written once), per-fish values, derived masses.
 
-Defaults describe a fish built round the report's linkage (docs/swimming-dynamics.md gives each
-one's source): a neutrally buoyant prolate-spheroid hull 0.5 m long and 0.2 m across (the ring
-gear, 0.2 m across, must fit inside), with O 0.05 m behind the centre of mass so that the tail
-pivot S (OS = 0.2 m behind O) sits at the hull's end.
-
-Every value may be a float or an array broadcastable to the batch's shape (N,): one fish per
-element, no per-fish loop.
+One place for what config/fish.yaml, the simulator, the pilot and the command lines accept.
+Every value may be a float or an array with one element per fish, so that a batch of fish needs
+no per-fish loop. Each default and its source: docs/swimming-dynamics.md ("Parameters").
 
 >>> fish = FishParameters()
 >>> round(fish.surge_mass_kg, 3), round(fish.sway_mass_kg, 3), round(fish.yaw_inertia_kg_m2, 4)
@@ -92,7 +88,11 @@ def _field(name: str) -> Any:
 
 
 def check_values(spec: ParameterSpec, value: PerFish) -> PerFish:
-    """``value`` (float or per-fish array) inside ``spec``'s range, else SwimParameterError."""
+    """``value`` (float or per-fish array), checked against ``spec``'s range.
+
+    Raises:
+        SwimParameterError: a value outside the range or not finite (naming the fish).
+    """
     low = -math.inf if spec.minimum is None else spec.minimum
     high = math.inf if spec.maximum is None else spec.maximum
     values = np.asarray(value, dtype=float)
@@ -108,7 +108,12 @@ def check_values(spec: ParameterSpec, value: PerFish) -> PerFish:
 
 @dataclasses.dataclass(frozen=True)
 class FishParameters:
-    """The fish: floats, or arrays with one element per fish (checked against the specs)."""
+    """The fish: floats, or arrays with one element per fish (checked against the specs).
+
+    Raises:
+        SwimParameterError: a value outside its spec's range, or m1, m2 or J not positive.
+        FishParameterError: per-fish arrays that do not broadcast together.
+    """
 
     water_density_kg_m3: PerFish = _field("water_density_kg_m3")
     body_length_m: PerFish = _field("body_length_m")
@@ -139,7 +144,12 @@ class FishParameters:
 
     @classmethod
     def from_values(cls, values: Mapping[str, object]) -> FishParameters:
-        """Build from parameter values by name (names not given keep their defaults)."""
+        """Build from parameter values by name (names not given keep their defaults).
+
+        Raises:
+            FishParameterError: an unknown name or a value that is not a number, or what the
+                class refuses.
+        """
         chosen: dict[str, PerFish] = {}
         for name, value in values.items():
             spec = FISH_PARAMETERS_BY_NAME.get(name)

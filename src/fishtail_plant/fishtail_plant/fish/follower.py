@@ -1,34 +1,10 @@
 """One fish following a sampled carrier angle: RK4 between samples, swimming figures per beat.
 
-The simulator node feeds every accepted ``motor/joint_state`` sample (stamp, unwrapped carrier
-angle) to :meth:`SwimFollower.follow`; this module has no ROS in it.
-
-Between two consecutive samples the carrier angle is interpolated linearly, so the carrier turns
-at the constant speed (phi1 - phi0) / (t1 - t0) within the interval. That is the carrier's actual
-motion to first order: its error is of order phi_ddot dt² / 8 in the angle (zero at constant
-motor speed), and the samples' reported velocities are not used. The engine's tail is solved at
-every RK4 stage time of that interpolated motion (:class:`EngineTailDrive`, never an interpolated
-tail), and the interval is cut into equal sub-steps of at most ``max_step_s``.
-
-A beat is one carrier revolution, from a carrier angle that is a multiple of 2 pi to the next
-(the library's beats, which start at phi = 0 at t = 0). The time the angle crosses a boundary is
-found on the interpolated motion and made a sub-step boundary, so every beat starts and ends on
-an integrated state. The first beat starts at the first crossing, or when the carrier first moves
-forward from a boundary (the driver starts at phi = 0 and may idle there): an idle carrier never
-starts a beat. Over a beat the follower accumulates, by the trapezoid rule on the sub-step
-grid, the means of the trailing-edge force along body x and of the tail power, and the extremes of
-the tip's lateral position; at its end :class:`BeatFigures` gives the spec's figures with the
-library's definitions (:mod:`fishtail_plant.fish.figures` for one beat on a uniform grid gives
-the same numbers; the unit tests check that).
-
-An interval longer than ``max_interval_s`` (the input stopped, then resumed) is not integrated:
-the fish keeps its state, time jumps, and the beat in progress is abandoned. :meth:`SwimFollower.
-restart` does the same at any sample, also one stamped before the previous (a restarted driver, a
-replayed recording); the fish's time then stands still across it.
-
-:meth:`SwimFollower.follow` is all or nothing: when the engine or the dynamics raise within an
-interval, the error propagates and the follower is left as it was before the call, so the next
-sample integrates from the last one that succeeded.
+The swimming simulator node's library (no ROS here): it feeds every accepted
+``motor/joint_state`` sample to :meth:`SwimFollower.follow`, which integrates the fish over the
+interval on the linearly interpolated carrier (the engine's tail solved at every RK4 stage) and
+closes a beat, with its :class:`BeatFigures`, at each revolution. How samples, gaps, restarts and
+beats are handled: docs/swimming-dynamics.md ("The simulator node").
 """
 
 from __future__ import annotations
@@ -166,7 +142,13 @@ class SwimFollower:
         max_step_s: float,
         max_interval_s: float = math.inf,
     ) -> None:
-        """Follow ``tail`` on ``fish`` (one fish: float parameters) with sub-steps <= max_step_s."""
+        """Follow ``tail`` on ``fish`` (one fish: float parameters) with sub-steps <= max_step_s.
+
+        ``max_interval_s``: a longer interval between samples is a gap, not integrated.
+
+        Raises:
+            ValueError: ``max_step_s`` not finite and positive, or ``max_interval_s`` not positive.
+        """
         if not (math.isfinite(max_step_s) and max_step_s > 0.0):
             raise ValueError(f"max_step_s must be finite and positive, got {max_step_s!r}")
         if not max_interval_s > 0.0:
@@ -202,10 +184,15 @@ class SwimFollower:
     def follow(self, stamp_ns: int, angle_rad: float) -> None:
         """Integrate up to the sample at ``stamp_ns`` (after the previous one) with its angle.
 
-        Raises ValueError for a non-finite angle and :class:`StampNotIncreasingError` for a stamp
-        not after the previous sample's: the caller drops those before (the node's input guard).
-        An error of the engine or the dynamics (FishtailKinematicsError, SwimError) propagates
-        and leaves the follower unchanged.
+        All or nothing: when the engine or the dynamics raise within the interval, the follower
+        is left as it was, so the next sample integrates from the last one that succeeded.
+
+        Raises:
+            ValueError: a non-finite angle.
+            StampNotIncreasingError: a stamp not after the previous sample's (the node's input
+                guard drops both before).
+            FishtailKinematicsError: the engine refused the carrier's motion.
+            SwimError: the dynamics refused the state.
         """
         if not math.isfinite(angle_rad):
             raise ValueError(f"carrier angle {angle_rad!r} is not finite")
@@ -273,6 +260,9 @@ class SwimFollower:
         sample and the beat in progress is abandoned, as after a gap; the fish keeps its state.
         A stamp at or before the previous one moves the fish's time 0 (``first_stamp_ns``) by as
         much, so the fish's time stands still across the restart instead of going back.
+
+        Raises:
+            ValueError: a non-finite angle.
         """
         if not math.isfinite(angle_rad):
             raise ValueError(f"carrier angle {angle_rad!r} is not finite")

@@ -1,12 +1,9 @@
 """The model's formulas, written once for both ways they are evaluated.
 
-Each function here is plain arithmetic on its arguments (``np.cos``, ``np.hypot``, ... and the
-operators, no branches on values, no containers): called with numpy arrays it evaluates a batch of
-fish at once (:class:`~fishtail_plant.fish.model.SwimModel`, the figures), and compiled as it
-stands by :mod:`fishtail_plant.fish.fused` it is the inner loop of the fixed-step integrator for
-one fish at a time. The frames, the symbols and the signs are those of docs/swimming-dynamics.md:
-body x forward, y left; the tail frame at O = (-l_O, 0) with x backward; the fin's forward tangent
-t = (cos th, -sin th) and normal n = (sin th, cos th).
+Plain arithmetic on the arguments (no branches on values, no containers), so that numpy
+evaluates them on a batch of fish (:class:`~fishtail_plant.fish.model.SwimModel`) and numba
+compiles them as they stand into the integrator's loop (:mod:`~fishtail_plant.fish.fused`).
+Frames, symbols and signs: docs/swimming-dynamics.md.
 
 >>> force_x, force_y, moment, tangential, normal, tip_x, tip_y = tip_force(
 ...     1.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0)

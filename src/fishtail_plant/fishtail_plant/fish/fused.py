@@ -1,16 +1,10 @@
 """The fixed-step RK4 loop compiled: the model's formulas for one fish at a time, many steps a call.
 
-The tail moves as the carrier makes it, whatever the fish does, so the engine can solve it ahead
-for every sub-step time of a block of steps at once (vectorised, exact at each stage time: no
-interpolation) and the loop over steps needs only the body's equations. Those are a few dozen
-floating-point operations on six numbers, where numpy's per-call cost on arrays of one or a hundred
-fish would dominate; this module compiles :mod:`~fishtail_plant.fish.formulas` (the same source
-the numpy model evaluates) with numba into one loop over fish and steps.
-
-Numba is optional: :data:`AVAILABLE` says whether it imported, and the integrator falls back to
-the numpy model (same results, to rounding) without it. The compiled code is cached on disk next
-to this module (or in numba's user cache when that is read-only): the first call of a process
-that finds no cache compiles for a few seconds.
+The tail is solved ahead for a block of steps, so the loop over steps needs only the body's
+equations, where numpy's per-call cost would dominate; numba compiles
+:mod:`~fishtail_plant.fish.formulas` (the numpy model's own source) into one loop. Numba is
+optional (:data:`AVAILABLE`); without it the integrator uses the numpy model. Costs, the cache
+and the fallback: docs/swimming-dynamics.md ("Integrator").
 """
 
 from __future__ import annotations

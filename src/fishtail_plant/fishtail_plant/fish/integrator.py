@@ -1,14 +1,8 @@
 """Fixed-step integration of a batch of fish: classical fourth-order Runge-Kutta.
 
-Why RK4: the right-hand side is explicit and cheap once the tail is known, and the tail is known
-exactly at any time (the engine solves the carrier angle phi(t) at each of the four sub-step
-times; no interpolation of sampled messages), so an explicit method needs one engine call per
-stage. The equations are not stiff (the body's surge, sway and yaw time constants are seconds,
-the beat a fraction of one), the tail motion is smooth, and fourth order lets a few dozen steps
-per beat reach 1e-6 relative accuracy, which the checks measure. A fixed step keeps every fish of
-a batch on the same time grid and lets the beats fall on samples (a step that divides the beat
-period), so beat means need no interpolation either. Adaptive or implicit methods would buy
-nothing here and would break the one-grid batch.
+Explicit and fixed-step because the tail is known exactly at every stage time and the equations
+are not stiff, and one step for the whole batch keeps every fish on one time grid with the beats
+on samples. Why, and the accuracy measured: docs/swimming-dynamics.md ("Integrator").
 
 >>> import numpy as np
 >>> decay = lambda t, y: -y
@@ -75,6 +69,10 @@ def simulate(
     ``record_every``-th state is kept (and the first). ``progress`` is called with the number of
     steps done, a few times a second at most. The loop is the compiled one
     (:mod:`~fishtail_plant.fish.fused`) where numba is installed, else the numpy model's.
+
+    Raises:
+        SwimInputError: a step that is not finite and positive, a count below 1, an initial
+            state of the wrong shape or not finite, or an integration that diverged.
     """
     if not (math.isfinite(step_s) and step_s > 0.0):
         raise SwimInputError(f"step_s must be finite and positive, got {step_s!r}")

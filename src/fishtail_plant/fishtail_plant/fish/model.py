@@ -1,20 +1,10 @@
 """Forces on the fish and its equations of motion in the horizontal plane.
 
-Frames (docs/swimming-dynamics.md): body ``base_link`` (REP 103: origin at the centre of mass C,
-x forward, y left), tail frame at O (x backward, y left, z down) with O at x_b = -l_O, so a tail
-point (x_t, y_t) is at (-l_O - x_t, y_t) in the body and a tail velocity (xd_t, yd_t) is
-(-xd_t, yd_t). The fin's forward tangent t = (cos th, -sin th) and its normal n = (sin th, cos th).
-
-State of each fish, one row of an (N, 6) array: X, Y, psi (world), u, v, r (body).
-
-    (M_rb + m c g g^T) (u̇, v̇, ṙ) = (m2 v r, -m1 u r, (m1 - m2) u v) + F_T + F_body + F_rec'
-
-with M_rb = diag(m1, m2, J); F_T Lighthill's reactive force at the trailing edge with its moment
-about C; F_body drag, lift and yaw damping; F_rec' the recoil of a fin of chord c without its
-body-acceleration part, which is the rank-one added mass m c g g^T (g the generalised direction of
-the fin's normal at mid-chord) and is inverted by the Sherman-Morrison formula, per fish.
-The formulas themselves are :mod:`fishtail_plant.fish.formulas`'; this module gives them the
-fish, the tail and the state of a batch.
+:class:`SwimModel` is the right-hand side a batch of fish is integrated with: Lighthill's
+reactive force at the trailing edge, the hull's drag, lift and yaw damping, and the recoil of a
+fin with chord, on states (X, Y, psi, u, v, r), one row of an (N, 6) array per fish. The
+formulas themselves are :mod:`fishtail_plant.fish.formulas`; this module gives them the fish,
+the tail and the state. Frames, forces and equations: docs/swimming-dynamics.md.
 
 >>> from fishtail_plant.fish.tail_drive import SinusoidalTailDrive
 >>> drive = SinusoidalTailDrive(0.2, 0.0, 0.3, 6.0)
@@ -141,7 +131,11 @@ class SwimModel:
         return trailing_edge_force(self.fish, tail, u, v, r), body_force(self.fish, u, v, r), tail
 
     def derivatives(self, time_s: npt.ArrayLike, state: FloatArray) -> FloatArray:
-        """d(state)/dt for states of shape (..., N, 6) at ``time_s``."""
+        """d(state)/dt for states of shape (..., N, 6) at ``time_s``.
+
+        Raises:
+            SwimInputError: a state without 6 columns.
+        """
         if state.shape[-1] != STATE_SIZE:
             raise SwimInputError(f"a state has {STATE_SIZE} columns, got shape {state.shape}")
         fish = self.fish

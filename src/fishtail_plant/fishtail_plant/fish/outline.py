@@ -1,14 +1,10 @@
 """Where the fish is drawn: its hull and tail points in the body frame, and the body in the world.
 
-The geometry of every picture of the swimming fish (the simulator's RViz markers, the command
-line's animation), so that each picture places the same fish the same way. Points are arrays of
-shape ``(..., 2)`` holding (x, y) in metres.
-
-* Hull: the prolate spheroid of length L and diameter D cut in the plane of swimming, an ellipse
-  round the centre of mass C (the body frame's origin, x forward, y left).
-* Tail: the engine's tail frame has its origin at the ring-gear centre O, x backward, y left, and O
-  lies at x_b = -l_O, so a tail point (x_t, y_t) is (-l_O - x_t, y_t) in the body.
-* World: the body turned by the yaw psi (counter-clockwise) and moved to C's position (X, Y).
+The one placement every picture of the swimming fish uses (the simulator's RViz markers, the
+command line's animation), so that they all draw the same fish the same way: the hull an ellipse
+L x D round C, tail points moved from the tail frame to the body, the body turned by psi and moved
+to (X, Y). Points are ``(..., 2)`` arrays of (x, y) in metres. Frames: docs/swimming-dynamics.md
+("Frames and signs").
 
 >>> import math
 >>> body_to_world(np.array([1.0, 0.0]), 2.0, 3.0, math.pi / 2).round(12).tolist()

@@ -1,17 +1,8 @@
 """Inertia, added masses and yaw damping of a prolate-spheroid body, the defaults of the fish.
 
-Added masses from Lamb's k-coefficients (H. Lamb, *Hydrodynamics*, 6th ed. 1932, §373; tabulated
-in J. N. Newman, *Marine Hydrodynamics*, 1977, §4.12, and used in this form by T. I. Fossen,
-*Handbook of Marine Craft Hydrodynamics and Motion Control*, 2011, §6.4). For semi-axes a > b
-(a = L/2 along the body, b = D/2) and eccentricity e = sqrt(1 - b²/a²):
-
-    alpha0 = 2 (1 - e²)/e³ · (½ ln((1 + e)/(1 - e)) - e)
-    beta0  = 1/e² - (1 - e²)/(2 e³) · ln((1 + e)/(1 - e))
-    k1 = alpha0/(2 - alpha0),  k2 = beta0/(2 - beta0),
-    k' = e⁴ (beta0 - alpha0) / ((2 - e²) [2 e² - (2 - e²)(beta0 - alpha0)])
-
-and -X_u̇ = k1 m_f, -Y_v̇ = k2 m_f, -N_ṙ = k' I_f with m_f = (4/3) π ρ a b² the displaced water's
-mass and I_f = m_f (a² + b²)/5 its moment of inertia about the transverse axis through C.
+The fish's default hull is a neutrally buoyant prolate spheroid; its added masses come from
+Lamb's k-coefficients, so that a different L, D or rho gives consistent values. Formulas and
+references: docs/swimming-dynamics.md ("Parameters").
 
 >>> round(lamb_coefficients(1.0, 1.0)[0], 6), round(lamb_coefficients(1.0, 1.0)[2], 6)  # sphere
 (0.5, 0.0)
@@ -46,7 +37,11 @@ class SpheroidBody(NamedTuple):
 
 
 def lamb_coefficients(length_m: float, diameter_m: float) -> tuple[float, float, float]:
-    """Lamb's (k1, k2, k') of a prolate spheroid of length L and diameter D (L >= D > 0)."""
+    """Lamb's (k1, k2, k') of a prolate spheroid of length L and diameter D (L >= D > 0).
+
+    Raises:
+        SwimParameterError: a length that is not finite and > 0, or a diameter not in (0, L].
+    """
     if not (math.isfinite(length_m) and length_m > 0.0):
         raise SwimParameterError("body_length_m", length_m, 0.0, math.inf, "m")
     if not (math.isfinite(diameter_m) and 0.0 < diameter_m <= length_m):
@@ -67,9 +62,15 @@ def lamb_coefficients(length_m: float, diameter_m: float) -> tuple[float, float,
 def prolate_spheroid(length_m: float, diameter_m: float, density_kg_m3: float) -> SpheroidBody:
     """Mass, yaw inertia and added masses of a neutrally buoyant spheroid (uniform density).
 
+    -X_udot = k1 m_f, -Y_vdot = k2 m_f and -N_rdot = k' I_f, with m_f and I_f = m_f (a² + b²)/5 the
+    displaced water's mass and moment of inertia about the vertical axis through C.
+
     >>> body = prolate_spheroid(0.5, 0.2, 1000.0)
     >>> round(body.mass_kg, 3), round(body.added_mass_sway_kg, 3)
     (10.472, 7.978)
+
+    Raises:
+        SwimParameterError: as :func:`lamb_coefficients`.
     """
     k1, k2, k_yaw = lamb_coefficients(length_m, diameter_m)
     a, b = 0.5 * length_m, 0.5 * diameter_m

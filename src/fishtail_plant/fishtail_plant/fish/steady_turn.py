@@ -1,28 +1,11 @@
 """Steady turning against a steering input: one fish per input value, stepped from rest as a batch.
 
-The Cardan linkage swings the tail symmetrically and the motor turns one way, so the fish steers
-by one of two inputs:
-
-* **carrier modulation** (one motor): the carrier runs as
-  :class:`~fishtail_kinematics.engine.carrier_profile.CarrierSpeedProfile` (depth delta, phase
-  phi_0), faster through one half-stroke than the other. A revolution still lasts 2 pi / Omega,
-  so every fish of a batch beats at the same frequency and the beat ends fall on one time grid.
-* **pivot shift** (a second, slow actuator): the pivot S moved along the body axis turns the
-  swing's mid-line off the axis (the engine's ``Tail.with_pivot_shift``): a true bias.
-
-Each fish gets its own :class:`TailDrive` (its profile, or its shifted tail); :class:`PerFishDrive`
-puts them side by side as one batch, so one run of the integrator (compiled where numba is
-installed) steps every input value at once. The figures are over the last whole beats after the
-start-up transient: mean yaw rate r̄ (> 0 turning left, counter-clockwise from above, REP 103),
-mean speed Ū, the signed turning radius, and the tail power. Every force is quadratic in
-velocity, so r̄/f and Ū/f, hence the radius, are the same at every beat frequency f (a test
-checks it at two carrier speeds).
-
-How long the transient lasts is measured, not assumed: :attr:`SteadyTurn.transient_beats` counts
-the beats before every fish's heading change per beat stays within :data:`SETTLED_RAD_PER_BEAT` of
-its last beat's. For the report's tails with the default fish and 64 steps a beat it is 12 to 22
-beats for mechanism 2 and 27 to 47 for mechanism 1 (its slowest fish are those that swim nearly
-straight, where the yaw is least damped); :data:`TURN_BEATS` leaves a margin.
+How well the fish turns by carrier modulation (depth and phase of a
+:class:`~fishtail_kinematics.engine.carrier_profile.CarrierSpeedProfile`) or by a pivot shift:
+each input value gets its fish and tail drive, :class:`PerFishDrive` steps them as one batch,
+and :class:`SteadyTurn` holds the figures over the last whole beats after the start-up
+transient, which is measured (:attr:`SteadyTurn.transient_beats`), not assumed. The method, the
+tables and what they mean: docs/steering.md.
 """
 
 from __future__ import annotations
@@ -123,7 +106,11 @@ class PerFishDrive:
     """
 
     def __init__(self, drives: Sequence[TailDrive]) -> None:
-        """Put ``drives`` side by side, fish ``k`` driven by ``drives[k]``."""
+        """Put ``drives`` side by side, fish ``k`` driven by ``drives[k]``.
+
+        Raises:
+            SwimInputError: no drive.
+        """
         if not drives:
             raise SwimInputError("a batch needs at least one drive")
         self.drives = tuple(drives)
@@ -188,6 +175,10 @@ def steady_turn(
 
     Every fish beats with ``beat_period_s`` (a modulated carrier keeps its revolution's
     duration). ``progress`` is called with the number of steps done.
+
+    Raises:
+        SwimInputError: settings whose beats cannot hold a transient and the beats averaged,
+            or what :func:`~fishtail_plant.fish.integrator.simulate` refuses.
     """
     if settings.beats <= settings.average_beats or settings.average_beats < 1:
         raise SwimInputError(
@@ -225,7 +216,11 @@ def _transient(trajectory: Trajectory, steps_per_beat: int) -> tuple[int, float]
 
 
 def beat_period(carrier_speed_rad_s: float) -> float:
-    """2 pi / Omega: a revolution of the carrier, modulated or not (SwimInputError unless > 0)."""
+    """2 pi / Omega: a revolution of the carrier, modulated or not.
+
+    Raises:
+        SwimInputError: a carrier speed that is not finite and > 0.
+    """
     if not (math.isfinite(carrier_speed_rad_s) and carrier_speed_rad_s > 0.0):
         raise SwimInputError(f"carrier speed must be > 0 rad/s, got {carrier_speed_rad_s!r}")
     return 2.0 * math.pi / carrier_speed_rad_s
@@ -242,7 +237,9 @@ def modulation_turns(
 ) -> SteadyTurn:
     """The steady turn at each (depth, phase) pair (broadcast together), one batch.
 
-    Raises the engine's CarrierProfileError for a depth outside [0, 0.9].
+    Raises:
+        CarrierProfileError: a depth outside [0, 0.9] (the engine's).
+        SwimInputError: a carrier speed that is not finite and > 0, or bad settings.
     """
     period = beat_period(mean_speed_rad_s)
     depth, phase = np.broadcast_arrays(
@@ -267,7 +264,9 @@ def pivot_shift_turns(
 ) -> SteadyTurn:
     """The steady turn at each pivot shift (the carrier at constant speed), one batch.
 
-    Raises the engine's error for a shift outside ``tail.pivot_shift_range()``.
+    Raises:
+        PivotShiftError: a shift outside ``tail.pivot_shift_range()`` (the engine's).
+        SwimInputError: a carrier speed that is not finite and > 0, or bad settings.
     """
     period = beat_period(carrier_speed_rad_s)
     shifts = np.atleast_1d(np.asarray(pivot_shifts_m, dtype=float))
@@ -294,6 +293,10 @@ def strongest_phases(
     The effect is smooth and periodic in phi_0 (to first order in the depth a pure first
     harmonic), so the scan's trigonometric interpolant is evaluated on ``resolution`` phases and
     its extremes taken: the best phases are found between the scanned ones. Phases in [0, 2 pi).
+
+    Raises:
+        SwimInputError: fewer than 3 phases, not equally spaced over 2 pi, or values not shaped
+            like them.
     """
     phases = np.asarray(phases_rad, dtype=float)
     values = np.asarray(yaw_per_beat_rad, dtype=float)

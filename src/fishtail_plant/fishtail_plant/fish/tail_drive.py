@@ -1,16 +1,10 @@
 """How the tail moves: the one interface the dynamics need, for the engine's tails and a sinusoid.
 
-A :class:`TailDrive` gives, at a time t (a float, or an array broadcast against the batch), for
-every fish in the batch, in the tail frame at O (x back along the body, y left, z down): the tip T
-and its velocity relative to the body, the fin's angle to the x axis and its rate; and, only when
-a fish's fin has a chord (the recoil term), their accelerations.
-
-* :class:`EngineTailDrive`: either mechanism of the kinematics engine through its :class:`Tail`
-  surface; the fin angle is the last link's angle to the body axis (``Tail.fin_angle_field``:
-  theta3, plus the swing bias of a shifted pivot, or theta5) and the carrier turns as phi(t)
-  (``constant_carrier_speed``: phi = phi_dot t).
-* :class:`SinusoidalTailDrive`: the servo fish of the literature, a rigid fin of length l_fin
-  pivoting at O with theta(t) = alpha0 + alpha_a sin(omega t).
+A :class:`TailDrive` gives, for every fish of a batch at a time t, the tip and its velocity in
+the tail frame, the fin's angle and rate, and (for a fin with chord) their accelerations; the
+dynamics need nothing else of the tail. :class:`EngineTailDrive` is either mechanism of the
+engine turned by a carrier motion, :class:`SinusoidalTailDrive` the servo fish of the literature.
+Frames and drives: docs/swimming-dynamics.md ("Tail drives").
 
 >>> import math
 >>> drive = SinusoidalTailDrive(fin_length_m=0.2, mean_angle_rad=0.0, amplitude_rad=0.3,
@@ -73,7 +67,11 @@ CarrierMotion = Callable[[npt.ArrayLike], tuple[FloatArray, FloatArray, FloatArr
 
 
 def constant_carrier_speed(speed_rad_s: PerFish) -> CarrierMotion:
-    """The carrier at constant speed from phi = 0: phi = phi_dot t, one speed per fish."""
+    """The carrier at constant speed from phi = 0: phi = phi_dot t, one speed per fish.
+
+    Raises:
+        SwimParameterError: a non-finite speed.
+    """
     speed = np.asarray(speed_rad_s, dtype=float)
     if not np.isfinite(speed).all():
         bad = speed.ravel()[np.flatnonzero(~np.isfinite(speed.ravel()))[0]]
@@ -155,7 +153,12 @@ class SinusoidalTailDrive:
         amplitude_rad: PerFish,
         angular_frequency_rad_s: PerFish,
     ) -> None:
-        """Keep the fin's length and motion (floats or per-fish arrays)."""
+        """Keep the fin's length and motion (floats or per-fish arrays).
+
+        Raises:
+            SwimParameterError: a length or frequency that is not positive, an angle outside
+                [-pi, pi], a negative amplitude, or a non-finite value.
+        """
         for name, value, low in (
             ("fin_length_m", fin_length_m, 1e-6),
             ("mean_angle_rad", mean_angle_rad, -np.pi),

@@ -1,27 +1,10 @@
 """The torque and power the carrier must deliver: the links' inertia and a load on the tail.
 
-The linkage has one degree of freedom, the carrier angle phi: every body's centre of mass G_i and
-angle theta_i are functions of phi, so their velocities are the velocity ratios times phi_dot,
-v_Gi = (dG_i/dphi) phi_dot and omega_i = (dtheta_i/dphi) phi_dot. The kinetic energy is
-
-    T = sum_i ½ m_i |v_Gi|² + ½ I_i omega_i² = ½ J(phi) phi_dot²,
-    J(phi) = sum_i m_i |dG_i/dphi|² + I_i (dtheta_i/dphi)²   (the reduced inertia).
-
-A force F = (F_x, F_y) at the tip T (tail frame, acting on the tail) and a moment M about z on the
-last link (the fin: ST or VT) do work at the rate F . v_T + M omega_last. The carrier's torque tau
-makes the power balance tau phi_dot + F . v_T + M omega_last = dT/dt hold at every instant, and
-dT/dt = (J phi_ddot + ½ J' phi_dot²) phi_dot, so (virtual work; phi_dot cancels)
-
-    tau = J(phi) phi_ddot + ½ J'(phi) phi_dot² - (F . dT/dphi + M dtheta_last/dphi).
-
-The first two terms are the inertial torque, the last the external one. J' = dJ/dphi = 2 sum_i
-m_i (dG_i/dphi . d²G_i/dphi²) + I_i (dtheta_i/dphi)(d²theta_i/dphi²) uses the analytic second-order
-kinematics of :mod:`~fishtail_kinematics.engine.link_motion`, through ``Tail.link_motion``: no
-mechanism is named here. Gravity acts along z, normal to the linkage's horizontal plane: it does no
-work on the planar motion and has no term. Friction in the joints and gears is not modelled.
-
-Arrays of carrier angles are solved in the engine's blocks (:data:`BLOCK_SAMPLES` samples, whose
-work stays in the processor's cache), without a Python loop per sample.
+The motor's load through the linkage, by virtual work: the reduced inertia J(phi), its slope
+J'(phi) (from the engine's second-order kinematics, ``Tail.link_motion``; no mechanism is named
+here) and the torque J phi_ddot + ½ J' phi_dot² minus the work of a force at the tip and a
+moment on the last link. Arrays of angles are solved in the engine's blocks, with no Python
+loop per sample. Derivation, assumptions and figures: docs/motor-load.md ("The load").
 
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail
@@ -87,7 +70,11 @@ class CarrierLoadModel:
     """
 
     def __init__(self, tail: Tail, inertia: LinkInertia) -> None:
-        """Keep ``tail`` (either mechanism) and the masses of its links."""
+        """Keep ``tail`` (either mechanism) and the masses of its links.
+
+        Raises:
+            InvalidInertiaError: ``inertia`` has no values for one of the tail's links.
+        """
         self.tail = tail
         self.inertia = inertia
         self._fin_rate_field = f"{tail.fin_angle_field()}_dot"
@@ -120,7 +107,11 @@ class CarrierLoadModel:
         return _Block(inertia, slope, ratios)
 
     def reduced_inertia(self, motor_angle: npt.ArrayLike) -> ReducedInertia:
-        """J(phi), J'(phi), dT/dphi and dtheta_last/dphi at carrier angles phi [rad]."""
+        """J(phi), J'(phi), dT/dphi and dtheta_last/dphi at carrier angles phi [rad].
+
+        Raises:
+            InvalidInputError: a non-finite angle (naming the first bad index).
+        """
         angle = _finite("carrier angle", motor_angle)
         columns = np.empty((5, angle.size))
         for block, values in self._blocks(angle.ravel()):
@@ -133,7 +124,11 @@ class CarrierLoadModel:
     def kinetic_energy(
         self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike
     ) -> FloatArray:
-        """T = ½ J(phi) phi_dot² [J] at carrier angles phi [rad] and speeds phi_dot [rad/s]."""
+        """T = ½ J(phi) phi_dot² [J] at carrier angles phi [rad] and speeds phi_dot [rad/s].
+
+        Raises:
+            InvalidInputError: a non-finite angle or speed.
+        """
         speed = _finite("carrier speed", motor_velocity)
         energy: FloatArray = 0.5 * self.reduced_inertia(motor_angle).inertia_kg_m2 * speed**2
         return energy
@@ -153,6 +148,9 @@ class CarrierLoadModel:
         in the tail frame (x back, y left); ``fin_moment`` [N m]: an external moment about the
         tail frame's z (positive turning from x towards y) on the last link. Every argument is a
         float or an array; they broadcast together and J is solved once per carrier angle.
+
+        Raises:
+            InvalidInputError: a non-finite argument (naming it and the first bad index).
         """
         angle = _finite("carrier angle", motor_angle)
         inputs = _Inputs(
@@ -260,7 +258,11 @@ def carrier_load(
     tip_force_y: npt.ArrayLike = 0.0,
     fin_moment: npt.ArrayLike = 0.0,
 ) -> CarrierLoad:
-    """The carrier's torque and power: :meth:`CarrierLoadModel.load` of ``tail`` and ``inertia``."""
+    """The carrier's torque and power: :meth:`CarrierLoadModel.load` of ``tail`` and ``inertia``.
+
+    Raises:
+        InvalidInputError: a non-finite argument.
+    """
     return CarrierLoadModel(tail, inertia).load(
         motor_angle, motor_velocity, motor_acceleration, tip_force_x, tip_force_y, fin_moment
     )

@@ -1,40 +1,10 @@
 """The moving links' masses and moments of inertia: their parameter specs and one dataclass.
 
-Every moving body of either mechanism has a mass ``<link>_mass_kg`` and a moment of inertia
-``<link>_inertia_kg_m2`` about the vertical axis through its own centre of mass (the slider A only
-translates: it has a mass only). Each link's centre of mass is taken at its middle, between the
-joints that define it (a uniform link); its moment of inertia says how the mass is spread about
-that point. The links, with their names in :data:`LINKS`:
-
-======================  =====================================================  ==============
-link                    what it is, where its centre of mass is                mechanisms
-======================  =====================================================  ==============
-``carrier``             crank arm O-C that carries the planet; at C/2          both
-``planet``              planet gear (radius R/2), turning at -phi; at C        both
-``crank_link``          PR; at (P + R)/2                                       both
-``rocker_link``         RS; at (R + S)/2                                       both
-``tail_link``           ST, rigid with RS, with the fin; at (S + T)/2          oscillatory
-``swing_arm``           SW, rigid with RS, carries pin U; at (S + W)/2         undulatory
-``slider``              slider A on the body axis (translates only)            undulatory
-``slotted_link``        AV; at (A + V)/2                                       undulatory
-``fin_link``            VT, with the fin; at (V + T)/2                         undulatory
-======================  =====================================================  ==============
-
-These values live in a dataclass of their own, :class:`LinkInertia`, built from the same parameter
-file as the geometry (``config/*.yaml``): the geometry dataclasses say whether a linkage assembles
-and how it moves, which a mass does not change, and every consumer of a geometry (nodes, command
-lines, the symmetry monitor, the swimming simulator) would otherwise carry, compare and re-validate
-values it never uses. :func:`link_inertia_from_parameters` builds one from parameter values;
-:func:`~fishtail_kinematics.engine.parameters.geometry_from_parameters` ignores these names.
-
-Defaults: the report's appendix weighs the links of mechanism 1 (its centre-of-mass block is wrong,
-its masses are used): planet ("spur gear") 67.76 g, the carrier ("link that joins the motor with the
-spur-gear centre") 2.6 g, PR 2.6 g, RS 6.1 g and the tail fin 89.1 g (the ring gear, 80.46 g, does
-not move). Mechanism 2's links are not weighed there: SW and AV take RS's linear density
-(6.1 g / 0.234 m = 26.1 g/m, an aluminium strip of about 10 mm x 1 mm), the fin link VT carries the
-same fin (89.1 g), and the slider A is a PLA block of 20 x 12 x 10 mm (1240 kg/m^3: 3 g). The
-moments of inertia are those of a uniform bar of the default geometry's length, m L^2 / 12, and of
-a uniform disc for the planet, m (R/2)^2 / 2. A massless tail is :meth:`LinkInertia.massless`.
+Every moving link of either mechanism (:data:`LINKS`) has a mass ``<link>_mass_kg`` and a moment
+of inertia ``<link>_inertia_kg_m2`` about its centre of mass, taken at its middle. They are read
+from the same parameter files as the geometry but kept out of it, in :class:`LinkInertia`, since
+only the carrier's load needs them. The links, their defaults and where each comes from:
+docs/motor-load.md ("The links' masses: parameters and defaults").
 
 >>> inertia = LinkInertia()
 >>> inertia.mass_and_inertia("tail_link")
@@ -58,7 +28,7 @@ from fishtail_kinematics.engine.errors import ParameterError
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_plant.errors import InvalidInertiaError
 
-#: Every moving link, in the order of the table above.
+#: Every moving link (docs/motor-load.md tabulates them).
 LINKS = (
     "carrier", "planet", "crank_link", "rocker_link", "tail_link",
     "swing_arm", "slider", "slotted_link", "fin_link",
@@ -95,8 +65,10 @@ def _bar(mass_kg: float, length_m: float) -> float:
 class LinkInertia:
     """Mass [kg] and moment of inertia about the centre of mass [kg m^2] of every moving link.
 
-    Both mechanisms' links are here; each mechanism uses its own (``Tail.links``). Values must be
-    finite and >= 0 (:class:`InvalidInertiaError` otherwise).
+    Both mechanisms' links are here; each mechanism uses its own (``Tail.links``).
+
+    Raises:
+        InvalidInertiaError: a value that is not a number, not finite or negative.
     """
 
     carrier_mass_kg: float = REPORT_CARRIER_MASS_KG
@@ -136,7 +108,11 @@ class LinkInertia:
         return cls(**{field.name: 0.0 for field in dataclasses.fields(cls)})
 
     def mass_and_inertia(self, link: str) -> tuple[float, float]:
-        """(mass [kg], moment of inertia about its centre of mass [kg m^2]) of ``link``."""
+        """(mass [kg], moment of inertia about its centre of mass [kg m^2]) of ``link``.
+
+        Raises:
+            InvalidInertiaError: ``link`` is not one of :data:`LINKS`.
+        """
         if link not in LINKS:
             raise InvalidInertiaError(f"unknown link {link!r}: one of {', '.join(LINKS)}")
         mass = float(getattr(self, f"{link}_mass_kg"))
@@ -214,14 +190,15 @@ def inertia_parameters_in(values: Mapping[str, object]) -> dict[str, object]:
 def link_inertia_from_parameters(values: Mapping[str, object]) -> LinkInertia:
     """Build the :class:`LinkInertia` that ``values`` describe; names not given keep defaults.
 
-    Unknown names, wrong types and values outside a spec's range raise :class:`ParameterError`.
-
     >>> link_inertia_from_parameters({"tail_link_mass_kg": 0.1}).tail_link_mass_kg
     0.1
     >>> link_inertia_from_parameters({"slider_inertia_kg_m2": 0.1})  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     fishtail_kinematics...ParameterError: unknown link inertia parameter 'slider_inertia_kg_m2'
+
+    Raises:
+        ParameterError: an unknown name, a wrong type or a value outside its spec's range.
     """
     chosen: dict[str, float] = {}
     for name, value in values.items():

@@ -1,18 +1,9 @@
 """What the tail asks of the motor: the carrier's load torque and inertia for a motor model.
 
-A DC motor model (:mod:`~fishtail_plant.motor.dc_motor`) takes its load as two callables of the
-carrier angle phi and speed omega: ``torque(phi, omega)``, the torque the load needs apart from its
-inertia (the linkage's ½ J'(phi) omega² and the water's reaction), and ``inertia(phi)``, the
-linkage's reduced inertia J(phi), which belongs on the motor's left-hand side. :class:`TailLoad`
-gives them for one tail in one of four surroundings (:data:`SURROUNDINGS`):
-
-* ``none``: no load (a motor turning freely);
-* ``air``: the links' inertia only (no water);
-* ``water_held``: the links and the water, the fish held at rest (a bench test in a tank);
-* ``water_swimming``: the links and the water with the fish towed at the steady speed it would
-  swim at with the carrier at omega. Every force is quadratic in velocity, so that speed is
-  U = kappa omega with one kappa per fish and tail (docs/swimming-dynamics.md, check 1): found once
-  from the cycle-average balance at 1 rad/s, then U follows omega within each revolution.
+:class:`TailLoad` gives a DC motor model (:mod:`~fishtail_plant.motor.dc_motor`) its two load
+callables, ``torque(phi, omega)`` and ``inertia(phi)``, for one tail in one of the
+:data:`SURROUNDINGS` (``none``, ``air``, ``water_held``, ``water_swimming``: the fish towed at
+the speed it would swim at). What each includes and the figures: docs/motor-load.md ("The load").
 
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 >>> from fishtail_plant.linkage_load.link_inertia import LinkInertia
@@ -49,19 +40,20 @@ def swimming_speed_per_carrier_speed(tail: Tail, fish: FishParameters) -> float:
 class TailLoad:
     """The carrier's load for a motor model: ``torque(phi, omega)`` and ``inertia(phi)``.
 
-    Every velocity of the linkage and of the water is the carrier speed times a ratio that depends
-    on phi alone (the towed fish's U = kappa omega too), and every term of the load is quadratic in
-    them: the load torque is exactly omega² c(phi), with c the torque at 1 rad/s. A motor model
-    asks for it a few thousand times a simulated second, one angle at a time, where the engine's
-    per-call cost (60-200 µs) would be far too slow; so c and J are solved once, vectorised, on
-    :data:`TABLE_SIZE` angles over a revolution, and read back by periodic cubic (Catmull-Rom)
-    interpolation, to a few 1e-9 of their peaks (a test holds it to the exact load).
+    The load torque is exactly omega² c(phi). A motor model asks for it thousands of times a
+    simulated second, one angle at a time, too often for the engine; so c and J are solved once
+    on :data:`TABLE_SIZE` angles and interpolated (docs/motor-load.md).
     """
 
     def __init__(
         self, tail: Tail, inertia: LinkInertia, fish: FishParameters, surroundings: str
     ) -> None:
-        """Load of ``tail`` with links ``inertia`` on ``fish``, in ``surroundings``."""
+        """Load of ``tail`` with links ``inertia`` on ``fish``, in ``surroundings``.
+
+        Raises:
+            SwimInputError: unknown ``surroundings``, or a fin with chord in water.
+            NoSteadySpeedError: ``water_swimming`` with a fish that has no steady speed.
+        """
         if surroundings not in SURROUNDINGS:
             raise SwimInputError(
                 f"surroundings {surroundings!r} is not one of {', '.join(SURROUNDINGS)}"

@@ -1,25 +1,10 @@
 """The water's force on the tail, for the carrier's load: Lighthill's force with the fish held.
 
-The fish is held by a guide: at rest (u = v = r = 0) or towed straight at a forward speed U
-(u = U, v = r = 0), the "fish held or swimming" of docs/swimming-dynamics.md. Lighthill's
-reactive force F_T (:func:`~fishtail_plant.fish.formulas.tip_force`, body frame) is the force of
-the water on the fish, applied through the fin at the trailing edge T: it is the force the water
-exerts on the tail, the reaction to the tail's push on the water. In the tail frame at O (x
-backward, y left) a body-frame vector (a, b) is (-a, b), so the tail feels (-F_T,x, F_T,y) at T.
-:class:`~fishtail_plant.linkage_load.carrier_load.CarrierLoadModel` takes exactly that force (the
-external force acting on the tail) and charges the carrier -F . dT/dphi for it: the carrier's
-power against the water is the tail power -F_T . (-Tx_dot, Ty_dot) of
-:func:`~fishtail_plant.fish.figures.tail_power`. Swimming (U > 0) its mean is positive: the
-tail works on the water. Held at rest its mean over a revolution is zero: the power is cubic in
-the tail's velocities and a revolution is its own time reversal (the pose depends on phi only
-through R cos(phi + psi)); for mechanism 1 it is zero at every instant, the fin turning about S.
-
-Only the trailing-edge force: a fin with chord (``fin_chord_m`` > 0) adds a recoil at mid-chord
-that is not modelled here, and such a fish is refused. The force acts at T, so it brings no moment
-of its own about the last link.
-
-Angles, speeds, the forward speed and the fish's per-fish values broadcast together (e.g. angles
-of shape (K, 1) against N fish): no loop over angles or fish.
+The fish held by a guide, at rest or towed straight at a forward speed U, so that the motor's
+load in water needs no free-body simulation: Lighthill's reactive force at the trailing edge
+(:func:`~fishtail_plant.fish.formulas.tip_force`), turned into the tail frame as the force acting
+on the tail. Angles, speeds and per-fish values broadcast together. Signs, the power it costs and
+why it averages to zero held at rest: docs/motor-load.md ("The water's reaction").
 
 >>> import numpy as np
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
@@ -84,7 +69,11 @@ def water_force_on_tail(
     """The water's force on the tail at T, the fish held at forward speed U (v = r = 0).
 
     ``motor_angle`` [rad] and ``motor_velocity`` [rad/s] are the carrier's; ``surge_speed_m_s``
-    is U (0: held at rest). Raises :class:`SwimInputError` for a fin with chord.
+    is U (0: held at rest).
+
+    Raises:
+        SwimInputError: a fin with chord (its recoil is not modelled), or a non-finite U.
+        InvalidInputError: a non-finite carrier angle or speed (the engine's).
     """
     _check_no_chord(fish)
     speed = np.asarray(surge_speed_m_s, dtype=float)
@@ -117,6 +106,10 @@ def carrier_load_in_water(
     """The carrier's torque and power for the links' inertia and the water, the fish held.
 
     The external part is the water's (:func:`water_force_on_tail`), the inertial part the links'.
+
+    Raises:
+        SwimInputError: as :func:`water_force_on_tail`.
+        InvalidInputError: a non-finite carrier angle, speed or acceleration.
     """
     water = water_force_on_tail(model.tail, fish, motor_angle, motor_velocity, surge_speed_m_s)
     return model.load(

@@ -55,6 +55,10 @@ class Scale:
             them, e.g. 4x the lines of a quadrature encoder decoded on both edges).
         gear_ratio: motor-shaft turns per carrier turn.
         pid_rate_hz: the firmware's ``PID_RATE``; the frame is ``1000 // pid_rate_hz`` ms.
+
+    Raises:
+        ValueError: counts not an integer >= 1, a gear ratio not finite and > 0, or a PID rate
+            not an integer in [1, 1000].
     """
 
     counts_per_revolution: int
@@ -116,6 +120,9 @@ class Scale:
         """Carrier speed [rad/s] -> (ticks per frame rounded to nearest, clamped?).
 
         The result is clamped to the 16-bit range the board's ``atoi`` can hold.
+
+        Raises:
+            ValueError: a non-finite speed.
         """
         if not math.isfinite(speed_rad_s):
             raise ValueError(f"speed must be finite, got {speed_rad_s!r}")

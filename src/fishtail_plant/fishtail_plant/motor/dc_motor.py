@@ -1,51 +1,10 @@
 r"""A brushed DC gear motor turning the carrier through a gearbox, against a load.
 
-Carrier coordinates: φ is the carrier angle (the gearbox output), ω = φ̇; the motor shaft turns
-N φ. With the PWM duty d ∈ [-1, 1] the armature sees d·V on average (an H-bridge such as the
-L298N, switched sign-magnitude with the low sides on in the off phase, so the current keeps
-flowing when the back-EMF exceeds d·V):
-
-.. code-block:: text
-
-    I     = (d V - k N ω) / R                             armature current
-    (J_m N² + e J(φ)) φ̈ = N (k I - b N ω - τ_c s) - e τ_L(φ, ω)
-    τ_out = J(φ) φ̈ + τ_L(φ, ω)                            torque of the gearbox on the carrier
-    e     = 1/η  while the motor drives the load (τ_out s > 0)
-            η    while the load drives the motor back (τ_out s < 0)
-
-R armature resistance, k torque constant (= back-EMF constant in SI units), b and τ_c viscous and
-Coulomb friction at the motor shaft (the gearbox's no-load losses included), J_m rotor inertia,
-η gearbox efficiency, s the direction of motion. The load is two callables: ``load(φ, ω)``, the
-torque the load needs at the carrier apart from its inertia (positive resists positive motion:
-it includes the linkage's ½ J'(φ) ω² and the water), and ``load_inertia(φ)``, the load's inertia
-reduced to the carrier, J(φ) ≥ 0. J(φ)·φ̈ is kept on the left-hand side: with φ̈ on both sides of
-the load's torque the step would otherwise be an algebraic loop.
-
-The gearbox loses a fraction 1 − η of the power it carries, whichever way it flows: motoring, the
-motor supplies τ_out/(N η) for τ_out at the carrier; back-driven (the load's torque pulls the
-carrier along, e.g. the tail springing back), the motor receives η τ_out / N. The torque needed at
-the motor is a continuous, increasing function of τ_out, so exactly one of the two modes is
-consistent at any state; it is found by trying the motoring one first.
-
-Inductance is neglected: the electrical time constant L/R of a motor of this size is about a
-millisecond (L of 1-3 mH over R ≈ 2 Ω), far below its mechanical one J_m R/k² (≈ 50 ms for the
-defaults) and the 33 ms between two PWM changes of the board. The bridge conducts both ways, so
-the circuit is linear and its current averaged over a PWM period (490-980 Hz on the Nano) is
-(d V − k N ω) / R whatever L: I is that average (its ripple, left out, adds to the R I² losses).
-
-Stiction (the Karnopp model, breakaway at τ_c): at rest the motor stays at rest, with no motion
-and no chattering, while the torques on it without friction are within τ_c of balance; it breaks
-away in the direction in which the equation above, with s of that direction, accelerates it.
-While moving, s is held for the whole internal step; a step in which ω changes sign is cut at
-the zero crossing (linear interpolation of ω) and the motor sticks there for the rest of that
-step.
-
-Integration: classical fourth-order Runge-Kutta on (φ, ω) with a fixed internal step
-``min(max_step_s, mechanical time constant / 10)``; :meth:`DcMotor.advance` splits any interval
-into equal steps no longer than that. RK4 because the equation is not stiff once the step
-resolves the mechanical time constant (h/τ = 0.1: the decay is exact to ~1e-7 per step), the load
-is smooth within a step, and the energy balance then closes to the integrator's accuracy, which
-a semi-implicit Euler step would not give at these step sizes.
+What a real motor does under the tail's load, for the driver's simulated backend
+(``motor_model: dc``), the emulated board and the motor sizing: armature current, gearbox
+losses both ways, stiction, integrated by RK4 on the carrier angle and speed. The load is two
+callables of the carrier's state, :data:`LoadTorque` and :data:`LoadInertia`.
+Equations, symbols, assumptions and the default motor: docs/motor-load.md ("The DC motor model").
 
 >>> motor = DcMotor(DcMotorParameters.from_stall_and_no_load(
 ...     supply_voltage_v=12.0, stall_torque_n_m=1.2, no_load_speed_rad_s=30.0, gear_ratio=30.0))
@@ -86,13 +45,12 @@ def _finite(value: Any) -> bool:
 class DcMotorParameters:
     """The motor, its gearbox and its supply; SI units, friction and inertia at the motor shaft.
 
-    The defaults are a Pololu 37D 12 V gearmotor with the 30:1 gearbox (items #4742/#4752),
-    from its datasheet at 12 V: 330 rpm and 0.2 A at no load, 5.5 A and 14 kg·cm (1.37 N m)
-    extrapolated at stall. R = 12 V / 5.5 A; k = (12 V − R·0.2 A) / (330 rpm · 30); the no-load
-    friction k·0.2 A split evenly between Coulomb and viscous (an assumption: the datasheet gives
-    their sum only); η from the stall torque, 1.37 N m = η·30·(k·5.5 A − τ_c). The rotor inertia
-    is not published: 3e-6 kg m² is an estimate from the rotor's size (a ~20 mm by 25 mm iron
-    core), giving a mechanical time constant of ~50 ms.
+    The defaults are a Pololu 37D 12 V 30:1 gearmotor; docs/motor-load.md derives each value
+    from its datasheet.
+
+    Raises:
+        ValueError: a value that is not finite, not positive (friction: negative), or an
+            efficiency outside (0, 1].
     """
 
     resistance_ohm: float = 2.18
@@ -137,6 +95,9 @@ class DcMotorParameters:
         At the motor shaft the no-load speed is ω₀ = N Ω₀ and the stall torque τ_s / (N η), so
         k = V / ω₀ and R = k V / (τ_s / (N η)). ``others`` are further fields (inertia, friction,
         step); friction given there lowers the no-load speed and the stall torque below these.
+
+        Raises:
+            ValueError: a figure that is not finite and positive, or a field the class refuses.
         """
         for name, value in (("stall_torque_n_m", stall_torque_n_m),
                             ("no_load_speed_rad_s", no_load_speed_rad_s)):  # fmt: skip
@@ -213,7 +174,11 @@ class DcMotor:
         angle_rad: float = 0.0,
         speed_rad_s: float = 0.0,
     ) -> None:
-        """At ``angle_rad`` and ``speed_rad_s`` with duty 0; at rest if the speed is 0."""
+        """At ``angle_rad`` and ``speed_rad_s`` with duty 0; at rest if the speed is 0.
+
+        Raises:
+            ValueError: a non-finite angle or speed.
+        """
         if not (_finite(angle_rad) and _finite(speed_rad_s)):
             raise ValueError(f"angle and speed must be finite, got {angle_rad!r}, {speed_rad_s!r}")
         self.parameters = parameters
@@ -230,7 +195,11 @@ class DcMotor:
         self._coulomb = p.coulomb_friction_n_m * p.gear_ratio  # at the carrier
 
     def set_duty(self, duty: float) -> None:
-        """The PWM duty from now on, in [-1, 1] (armature voltage duty · V)."""
+        """The PWM duty from now on, in [-1, 1] (armature voltage duty · V).
+
+        Raises:
+            ValueError: a duty outside [-1, 1] or not finite.
+        """
         if not (_finite(duty) and -1.0 <= duty <= 1.0):
             raise ValueError(f"duty must be in [-1, 1], got {duty!r}")
         self.duty = float(duty)
@@ -303,7 +272,11 @@ class DcMotor:
         self.speed_rad_s = 0.0
 
     def advance(self, dt_s: float) -> None:
-        """Move on by ``dt_s`` seconds with the present duty, in equal steps of at most step_s."""
+        """Move on by ``dt_s`` seconds with the present duty, in equal steps of at most step_s.
+
+        Raises:
+            ValueError: the load's torque or inertia came out non-finite (or the inertia < 0).
+        """
         if not dt_s > 0.0:
             return
         steps = max(1, math.ceil(dt_s / self.parameters.step_s - 1e-9))
@@ -313,7 +286,11 @@ class DcMotor:
 
     # --- outputs -------------------------------------------------------------------------------
     def outputs(self) -> DcMotorOutputs:
-        """Current, powers, carrier torque and acceleration at the present state and duty."""
+        """Current, powers, carrier torque and acceleration at the present state and duty.
+
+        Raises:
+            ValueError: the load's torque or inertia came out non-finite (or the inertia < 0).
+        """
         angle, speed = self.angle_rad, self.speed_rad_s
         if speed != 0.0:
             acceleration = self._acceleration(angle, speed, math.copysign(1.0, speed))

@@ -1,18 +1,9 @@
 """A simulated one-way DC gear motor with a quadrature encoder on the motor shaft.
 
-The carrier (output shaft, after the gearbox) speed follows the command with a first-order lag of
-time constant ``time_constant_s`` and is limited to ``max_speed_rad_s``. Between two calls of
-:meth:`SimulatedMotor.advance` the command is constant, so the model integrates exactly (no Euler
-error, whatever the step). The encoder counts ``counts_per_revolution`` per motor-shaft turn, the
-carrier turns once per ``gear_ratio`` motor turns, so the measured carrier angle is quantised to
-2 pi / (counts_per_revolution * gear_ratio).
-
-Optional speed noise is a seeded, stationary load disturbance ``d`` added to the lagged speed: an
-Ornstein-Uhlenbeck process with standard deviation ``speed_noise_rad_s`` and the motor's time
-constant as its correlation time, advanced exactly over any step
-(``d <- d e^(-dt/tau) + sigma sqrt(1 - e^(-2 dt/tau)) N(0, 1)``), so its statistics do not depend
-on how often :meth:`SimulatedMotor.advance` is called. The speed is ``max(lagged + d, 0)``: the
-disturbance never drives the one-way motor backwards.
+The driver's default simulated motor (``motor_model: first_order``): the carrier speed follows
+the command with a first-order lag, integrated exactly whatever the step, with an optional
+seeded speed disturbance; it feels no load. The model: docs/motor-load.md ("The first-order
+model").
 
 >>> motor = SimulatedMotor(MotorParameters(time_constant_s=0.1, counts_per_revolution=1000))
 >>> motor.command(4.0)
@@ -31,7 +22,12 @@ import random
 
 @dataclasses.dataclass(frozen=True)
 class MotorParameters:
-    """Simulated motor and encoder; SI units."""
+    """Simulated motor and encoder; SI units.
+
+    Raises:
+        ValueError: a time constant, top speed or gear ratio not finite and > 0, counts not an
+            integer > 0, or a negative noise.
+    """
 
     time_constant_s: float = 0.15
     max_speed_rad_s: float = 20.0
@@ -83,7 +79,11 @@ class SimulatedMotor:
         self._random = random.Random(parameters.seed)
 
     def command(self, speed_rad_s: float) -> None:
-        """Set the carrier speed target; clamped to [0, max_speed_rad_s] (the motor is one-way)."""
+        """Set the carrier speed target; clamped to [0, max_speed_rad_s] (the motor is one-way).
+
+        Raises:
+            ValueError: a non-finite speed.
+        """
         if not math.isfinite(speed_rad_s):
             raise ValueError(f"speed command must be finite, got {speed_rad_s!r}")
         self.target_rad_s = min(max(speed_rad_s, 0.0), self.parameters.max_speed_rad_s)

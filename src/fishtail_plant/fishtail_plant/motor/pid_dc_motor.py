@@ -1,19 +1,12 @@
 """The DC gear motor on one channel of the motor board, under the firmware's speed loop.
 
-What the simulated backend runs with ``motor_model: dc``: a carrier speed command becomes ticks
-per PID frame exactly as the serial backend sends it (:meth:`fishtail_driver.protocol.Scale.
-ticks_per_frame`: rounded, clamped to the board's 16-bit ``int``) and reaches
-:class:`~fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` as an ``m`` would (0 is ``m 0 0``: PWM
-0 at once, loop reset and stopped). Every PID frame (``1000 // PID_RATE`` ms) the loop reads the
-encoder and sets the PWM; between frames the DC motor (:mod:`fishtail_plant.motor.dc_motor`) runs
-at that duty (PWM / 255). The encoder counts ``counts_per_revolution`` per motor-shaft turn,
-``gear_ratio`` motor turns per carrier turn, floored as a counter sees them. The board's 2 s
-auto-stop is not modelled: the simulated backend needs no keep-alive (the node's watchdog stops
-it).
-
-It has the interface of :class:`fishtail_plant.motor.first_order.SimulatedMotor` (see
-:class:`fishtail_driver.backends.SimMotor`), plus the carrier torque as the effort and the
-current and powers in its status.
+What the simulated backend runs with ``motor_model: dc``: a speed command reaches
+:class:`~fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` as the serial backend's ``m`` would
+(:meth:`~fishtail_plant.motor.board_units.Scale.ticks_per_frame`), and between PID frames the
+:mod:`~fishtail_plant.motor.dc_motor` runs at the duty the loop set. It has the interface of
+:class:`~fishtail_plant.motor.first_order.SimulatedMotor` (the driver's ``SimMotor``), plus the
+carrier torque as the effort and the current and powers in its status.
+How the backend uses it: docs/motor-load.md ("In the simulated backend").
 
 >>> from fishtail_plant.motor.dc_motor import DcMotor, DcMotorParameters
 >>> drive = PidDrivenDcMotor(DcMotor(DcMotorParameters()), Scale(64, 30.0))
@@ -51,7 +44,11 @@ class PidDrivenDcMotor:
         self.motor.set_duty(self.loop.pwm[0] / PWM_MAX)
 
     def command(self, speed_rad_s: float) -> None:
-        """A carrier speed target (negative: 0, the motor is one-way), sent as ``m ticks``."""
+        """A carrier speed target (negative: 0, the motor is one-way), sent as ``m ticks``.
+
+        Raises:
+            ValueError: a non-finite speed.
+        """
         if not math.isfinite(speed_rad_s):
             raise ValueError(f"speed command must be finite, got {speed_rad_s!r}")
         self.target_rad_s = max(speed_rad_s, 0.0)

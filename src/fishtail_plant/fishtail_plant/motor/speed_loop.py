@@ -1,35 +1,10 @@
 r"""The motor board's speed loop (ROSArduinoBridge ``diff_controller.h``) in exact integer maths.
 
-One PID frame per ``1000 / PID_RATE`` ms (33 ms at the default PID_RATE of 30), for each channel,
-as ``updatePID()``/``doPID()`` compute it on the AVR (``int`` 16-bit, ``long`` 32-bit):
-
-.. code-block:: text
-
-    input    = (int)(Encoder - PrevEnc)                      encoder delta, wraps to 16 bits
-    Perror   = TargetTicksPerFrame - input                   long
-    increment = (Kp*Perror - (int)(Kd*(int)(input - PrevInput)) + ITerm) / Ko
-                                                             long, division truncates toward 0
-    output   = previous output + increment                   the output ACCUMULATES
-    clamp output to [-255, 255]; only when it was not clamped: ITerm = (int)(ITerm + Ki*Perror)
-    PrevEnc = Encoder; PrevInput = input
-
-With the default gains (Kp 20, Kd 12, Ki 0, Ko 50) the accumulated output is an integral of the
-error (0.4 PWM per tick of error per frame) minus 0.24 PWM per tick per frame of speed: a PI
-loop on the speed, with a dead band where ``|20 error - 12 (input - PrevInput)| < 50`` leaves the
-output unchanged (an error of up to 2 ticks per frame at a steady speed).
-
-The state machine around it, from ``ROSArduinoBridge.ino``: ``m 0 0`` sets the PWM to 0, resets
-the loop (``resetPID``: targets 0, PrevEnc = the encoder now, output, PrevInput and ITerm 0) and
-stops it (``moving = 0``); any other ``m`` sets the targets and starts it, without a reset;
-``r`` resets the loop (targets 0) and leaves ``moving`` alone; ``o`` (raw PWM) resets and stops
-it; the 2 s auto-stop sets the PWM to 0 and stops it *without* a reset. A frame while stopped
-reads the encoders and, if any channel's PrevInput is non-zero, resets the loop: PrevInput is
-only written by a running frame, so this fires once, at the first frame after an auto-stop that
-caught a channel moving. An auto-stop of a stalled channel (PrevInput 0) leaves its output and
-PrevEnc as they were, and the next ``m`` resumes from them.
-
-A frame of a running loop sets the motors to the outputs; a stopped loop leaves the PWM as the
-last command set it. Time is not kept here: :class:`FrameTimer` says when frames are due.
+The simulated DC motor and the emulated board run the firmware's own PID and its state machine
+(``m``, ``r``, ``o``, auto-stop), AVR ``int``/``long`` wrap-around included, so that they see
+the PWM a real board would set. :class:`FrameTimer` says when the frames fall; time is not kept
+here. The loop, its dead band and the state table: docs/motor-load.md ("The firmware's speed
+loop, as emulated").
 
 >>> loop = FirmwareSpeedLoop(counts=(0,))
 >>> loop.command((40,), counts=(0,))
@@ -62,7 +37,11 @@ def c_div(numerator: int, denominator: int) -> int:
 
 @dataclasses.dataclass(frozen=True)
 class PidGains:
-    """The firmware's gains (AVR ``int``), as ``u kp:kd:ki:ko`` sets them."""
+    """The firmware's gains (AVR ``int``), as ``u kp:kd:ki:ko`` sets them.
+
+    Raises:
+        ValueError: a gain that is not an integer or does not fit 16 bits, or ``ko`` 0.
+    """
 
     kp: int = DEFAULT_KP
     kd: int = DEFAULT_KD
@@ -110,7 +89,11 @@ class FirmwareSpeedLoop:
     """
 
     def __init__(self, counts: Sequence[int], gains: PidGains | None = None) -> None:
-        """Power on: loop reset and stopped, PWM 0."""
+        """Power on: loop reset and stopped, PWM 0.
+
+        Raises:
+            ValueError: no channel.
+        """
         if not counts:
             raise ValueError("a speed loop needs at least one channel")
         self.channels = len(counts)
@@ -155,7 +138,10 @@ class FirmwareSpeedLoop:
         """``updatePID()`` with the encoders reading ``counts``; returns the PWM in force after it.
 
         Running: every channel's doPID, then the motors get the outputs. Stopped: nothing, except
-        the reset when a channel's PrevInput is non-zero (see the module's docstring).
+        the reset when a channel's PrevInput is non-zero (docs/motor-load.md, the state table).
+
+        Raises:
+            ValueError: not one count per channel.
         """
         checked = _check_counts(counts, self.channels)
         for point, count in zip(self.set_points, checked, strict=True):
@@ -171,7 +157,12 @@ class FirmwareSpeedLoop:
 
     # --- the commands that touch the loop ------------------------------------------------------
     def command(self, targets: Sequence[int], counts: Sequence[int]) -> None:
-        """``m``: all-zero targets stop (PWM 0, reset, stopped); others set them and run."""
+        """``m``: all-zero targets stop (PWM 0, reset, stopped); others set them and run.
+
+        Raises:
+            ValueError: not one integer target per channel, a target beyond 16 bits, or (for
+                a stop) not one count per channel.
+        """
         if len(targets) != self.channels:
             raise ValueError(f"expected {self.channels} target(s), got {len(targets)}")
         for target in targets:
@@ -193,7 +184,11 @@ class FirmwareSpeedLoop:
         self.reset((0,) * self.channels)
 
     def raw_pwm(self, pwm: Sequence[int], counts: Sequence[int]) -> None:
-        """``o``: reset, stop the loop, set the PWM (clamped to +-255)."""
+        """``o``: reset, stop the loop, set the PWM (clamped to +-255).
+
+        Raises:
+            ValueError: not one PWM value and one count per channel.
+        """
         if len(pwm) != self.channels:
             raise ValueError(f"expected {self.channels} PWM value(s), got {len(pwm)}")
         self.reset(counts)
@@ -213,11 +208,8 @@ class FirmwareSpeedLoop:
 class FrameTimer:
     """When the PID frames fall: every ``frame_ms`` whole milliseconds, 1 ms after the grid.
 
-    The firmware starts with ``nextPID = PID_INTERVAL``, runs a frame at the first loop pass with
-    ``millis() > nextPID`` (strictly: one millisecond after it) and then adds the interval, so
-    frames keep a fixed grid (a late pass does not shift the later frames) at 34, 67, 100 ms ...
-    after power-on, as the firmware in simavr shows. (``millis()`` itself, counted by timer 0's
-    1.024 ms overflow, runs up to about a millisecond behind; that is not modelled.)
+    As the firmware's ``millis() > nextPID`` does (docs/motor-load.md): a late pass does not
+    shift the later frames.
 
     >>> timer = FrameTimer(frame_ms=33, start_s=0.0)
     >>> [round(t, 3) for t in timer.due(0.1)]
@@ -225,7 +217,11 @@ class FrameTimer:
     """
 
     def __init__(self, frame_ms: int, start_s: float) -> None:
-        """The first frame is one interval and a millisecond after ``start_s``."""
+        """The first frame is one interval and a millisecond after ``start_s``.
+
+        Raises:
+            ValueError: ``frame_ms`` not an integer >= 1.
+        """
         if isinstance(frame_ms, bool) or not isinstance(frame_ms, int) or frame_ms < 1:
             raise ValueError(f"frame_ms must be an integer >= 1, got {frame_ms!r}")
         self.frame_ms = frame_ms
