@@ -22,6 +22,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from fishtail_common.command_line import UsageError
 from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, SuiteNode
 
 PROGRAM = "fishtail-one-process"
@@ -32,12 +33,12 @@ END_OF_ROS_ARGS = "--"
 HOSTABLE: dict[str, SuiteNode] = {node.name: node for node in (*SUITE_NODES, SWIM_NODE, PILOT_NODE)}
 
 
-class UsageError(ValueError):
-    """The command line names no node, an unknown one, or misplaces ROS arguments."""
-
-
 def parse(argv: Sequence[str]) -> tuple[list[tuple[SuiteNode, list[str]]], list[str]]:
     """The nodes with each one's own ROS arguments, and the ROS arguments of every node.
+
+    Raises:
+        UsageError: the command line names no node, an unknown one or one twice, or misplaces
+            ROS arguments.
 
     >>> driver = ["driver", "--ros-args", "-p", "a:=1", "--"]
     >>> nodes, every_node = parse([*driver, "monitor", "--ros-args", "-r", "__ns:=/a"])

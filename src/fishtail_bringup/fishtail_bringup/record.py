@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import importlib
-import math
 import os
 import signal
 import sys
@@ -46,7 +45,9 @@ from fishtail_bringup.segmented_bag import (
     SegmentedBag,
 )
 from fishtail_common.bag_types import register_package_types, suite_typestore
+from fishtail_common.command_line import DURATION, add_parameter_options
 from fishtail_common.interface import SUITE_TOPICS, QosKind
+from fishtail_common.parameters import ParameterSpec
 
 PROGRAM = "fishtail-record"
 #: Subscription queue depth: deep enough to ride out a pause of the writer (~0.5 s at 200 Hz).
@@ -59,6 +60,17 @@ RETRY_PERIOD_S = 1.0
 EXIT_RETRY_S = 3.0
 #: How often topics whose type is not known yet are looked up in the ROS graph.
 DISCOVERY_PERIOD_S = 0.5
+#: The bag's durability options (docs/recording.md).
+SEGMENT_SEC = ParameterSpec(
+    "segment_sec", DEFAULT_SEGMENT_SEC,
+    "close a storage file this often; a SIGKILL loses at most the open one", "s", 0.0,
+    exclusive_minimum=True,
+)  # fmt: skip
+MAX_BUFFER_MB = ParameterSpec(
+    "max_buffer_mb", DEFAULT_MAX_BUFFER_MB,
+    "memory for messages that cannot be written (full disk) before the oldest are dropped",
+    "MiB", 0.0, exclusive_minimum=True,
+)  # fmt: skip
 
 
 def _say(text: str) -> None:
@@ -199,16 +211,6 @@ class RecorderNode:
                 _error(f"not recording {resolved}: {error}")
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
     parser = argparse.ArgumentParser(
@@ -226,17 +228,8 @@ def build_parser() -> argparse.ArgumentParser:
         + " ".join(topic.name for topic in SUITE_TOPICS) + ")",
     )  # fmt: skip
     parser.add_argument("--namespace", default="", help="namespace of the suite (relative topics)")
-    parser.add_argument(
-        "--segment-sec", type=_positive, default=DEFAULT_SEGMENT_SEC,
-        help="close a storage file this often [s]; a SIGKILL loses at most the open one "
-        f"({DEFAULT_SEGMENT_SEC:g})",
-    )  # fmt: skip
-    parser.add_argument(
-        "--max-buffer-mb", type=_positive, default=DEFAULT_MAX_BUFFER_MB,
-        help="memory for messages that cannot be written (full disk) before the oldest are "
-        f"dropped [MiB] ({DEFAULT_MAX_BUFFER_MB:g})",
-    )  # fmt: skip
-    parser.add_argument("--duration", type=_positive, help="stop after this many seconds")
+    add_parameter_options(parser, [SEGMENT_SEC, MAX_BUFFER_MB])
+    add_parameter_options(parser, [DURATION], optional=True)
     return parser
 
 

@@ -48,6 +48,7 @@ from fishtail_bringup.console import (
 )
 from fishtail_bringup.console_node import Console
 from fishtail_bringup.supervisor import Supervisor
+from fishtail_common.command_line import DURATION, add_parameter_options
 from fishtail_common.interface import (
     PILOT_NODE,
     SUITE_NODES,
@@ -56,6 +57,7 @@ from fishtail_common.interface import (
     SuiteNode,
 )
 from fishtail_common.parameter_files import default_parameter_file
+from fishtail_common.parameters import ParameterSpec
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
 from fishtail_pilot.pilot import GOAL_TOLERANCE
 from fishtail_pilot.steering import PIVOT_STEERING, STEERING
@@ -67,20 +69,12 @@ MOTOR_MODELS = SPECS["motor_model"].choices
 STEERING_CHOICES = STEERING.choices
 #: The driver's parameter that gives it the simulated pivot actuator.
 PIVOT_ACTUATOR = "pivot_actuator"
-
-
-def _speed(text: str) -> float:
-    value = float(text)
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError("speed must be finite and >= 0 rad/s (one-way motor)")
-    return value
-
-
-def _duration(text: str) -> float:
-    value = float(text)
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError("duration must be a positive number of seconds")
-    return value
+#: The speed this console commands, and the pilot's square route.
+SPEED = ParameterSpec("speed", 4.0, "carrier speed of the one-way motor", "rad/s", 0.0)
+SQUARE = ParameterSpec(
+    "square", 1.0, "with the pilot: swim around a square of this side, anticlockwise, back to the "
+    "start", "m", 0.0, exclusive_minimum=True,
+)  # fmt: skip
 
 
 def motor_parameters(motor: str | None, load: str) -> list[str]:
@@ -103,16 +97,6 @@ def _point(text: str) -> tuple[float, float]:
     return x, y
 
 
-def _side(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"a square's side must be positive, got {text!r}")
-    return value
-
-
 def _node_names(text: str) -> tuple[SuiteNode, ...]:
     known = {node.name: node for node in SUITE_NODES}
     names = [name.strip() for name in text.split(",") if name.strip()]
@@ -129,8 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="fishtail-run", description=__doc__.splitlines()[0])
     parser.add_argument("--mechanism", choices=("oscillatory", "undulatory"), default="oscillatory")
     parser.add_argument("--config", type=Path, help="parameter file (default config/<mechanism>)")
-    parser.add_argument("--speed", type=_speed, default=4.0, help="carrier speed, rad/s (4)")
-    parser.add_argument("--duration", type=_duration, help="stop after this many seconds")
+    add_parameter_options(parser, [SPEED])
+    add_parameter_options(parser, [DURATION], optional=True)
     parser.add_argument("--namespace", default="", help="namespace for the whole suite")
     parser.add_argument(
         "--nodes",
@@ -189,12 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     route.add_argument(
         "--goal", type=_point, metavar="X,Y", help="with the pilot: swim to (X, Y) m in world"
     )
-    route.add_argument(
-        "--square",
-        type=_side,
-        metavar="SIDE",
-        help="with the pilot: swim around a square of SIDE m, anticlockwise, back to the start",
-    )
+    add_parameter_options(route, [SQUARE], optional=True)
     parser.add_argument(
         "--steering",
         choices=STEERING_CHOICES,

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import math
 import sys
 import threading
 import time
@@ -37,6 +36,7 @@ from fishtail_bringup.view_scene import (
     marker_primitives,
     symmetry_primitives,
 )
+from fishtail_common.command_line import DURATION, add_parameter_options
 from fishtail_common.interface import (
     FISH_MARKERS,
     GOAL_POSE,
@@ -44,6 +44,7 @@ from fishtail_common.interface import (
     TAIL_STATE,
     TAIL_SYMMETRY,
 )
+from fishtail_common.parameters import ParameterSpec
 
 PROGRAM = "fishtail-view"
 #: How often the viewers are counted (and subscriptions follow them).
@@ -52,6 +53,18 @@ WATCH_PERIOD_S = 0.5
 PLOT_PERIOD_S = 0.1
 #: While a bag waits for its first viewer, and after it ends: how often to look again.
 IDLE_PERIOD_S = 0.2
+#: The highest TCP port.
+MAX_PORT = 65_535
+#: The options with a range: the bag's pace and the ports.
+RATE = ParameterSpec(
+    "rate", 1.0, "bag replay speed, 1 = as recorded", "", 0.0, exclusive_minimum=True
+)
+PORT = ParameterSpec(
+    "port", DEFAULT_GRPC_PORT, "Rerun data (gRPC) port, 0 = any free", "", 0, MAX_PORT
+)
+WEB_PORT = ParameterSpec(
+    "web_port", DEFAULT_WEB_PORT, "web viewer (HTTP) port, 0 = any free", "", 0, MAX_PORT
+)
 
 
 def _say(text: str) -> None:
@@ -146,20 +159,6 @@ class ViewNode:
             self._log(*goal_primitives(message))
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
-
-
-def _port(text: str) -> int:
-    value = int(text)
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"not a TCP port: {text}")
-    return value
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Command-line options."""
     parser = argparse.ArgumentParser(
@@ -169,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add = parser.add_argument
     add("--bag", type=Path, help="replay this bag of fishtail-record instead")
-    add("--rate", type=_positive, default=1.0, help="bag replay speed, 1 = as recorded (1)")
+    add_parameter_options(parser, [RATE])
     add(
         "--config",
         type=Path,
@@ -185,24 +184,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="address the viewers' data port listens on (127.0.0.1: this computer only, "
         "0.0.0.0: every interface)",
     )
-    add(
-        "--port",
-        type=_port,
-        default=DEFAULT_GRPC_PORT,
-        help=f"Rerun data (gRPC) port, 0 = any free ({DEFAULT_GRPC_PORT})",
-    )
-    add(
-        "--web-port",
-        type=_port,
-        default=DEFAULT_WEB_PORT,
-        help=f"web viewer (HTTP) port, 0 = any free ({DEFAULT_WEB_PORT})",
-    )
+    add_parameter_options(parser, [PORT, WEB_PORT])
     add(
         "--no-web",
         action="store_true",
         help="serve no web viewer (use the native one: rerun --connect URL)",
     )
-    add("--duration", type=_positive, help="stop after this many seconds")
+    add_parameter_options(parser, [DURATION], optional=True)
     return parser
 
 

@@ -31,6 +31,10 @@ from typing import NoReturn
 from fishtail_common.parameters import ParameterSpec, ParameterValue, ParameterValueError
 
 _BOOLEANS = {"true": True, "false": False}
+#: ``--duration`` of the commands that otherwise run until stopped (add it with ``optional=True``).
+DURATION = ParameterSpec(
+    "duration", math.inf, "stop after this many seconds", "s", 0.0, exclusive_minimum=True
+)
 
 
 class UsageError(Exception):
