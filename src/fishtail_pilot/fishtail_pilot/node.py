@@ -1,26 +1,10 @@
 """Pilot node: ``cmd_vel`` and ``goal_pose`` in, carrier speed profile and pivot position out.
 
-Topics (relative names):
-  sub ``cmd_vel``             geometry_msgs/Twist: linear.x forward speed m/s (>= 0), angular.z
-                              yaw rate rad/s (positive turns left, REP 103); the other components
-                              are ignored (a fish cannot swim sideways or backwards)
-  sub ``goal_pose``           geometry_msgs/PoseStamped in ``world`` (RViz's 2D Goal Pose tool):
-                              swim to its position; its orientation is ignored
-  sub ``fish/odom``           nav_msgs/Odometry, sensor-data QoS: the fish's pose and speed
-  pub ``motor/cmd_profile``   fishtail_msgs/CarrierSpeedProfile: the driver's carrier command, at
-                              ``control_rate_hz`` while moving, once when stopping
-  pub ``pivot/cmd_position``  std_msgs/Float64, m: only with ``steering: pivot``
-  pub ``/diagnostics``        mode, commanded and measured speed, heading, distance to the goal;
-                              WARN when a command is beyond what the fish can do (with the
-                              achievable value), ERROR when odometry stops while moving
-
-The control law is :class:`fishtail_pilot.pilot.Pilot`; the steering means and its map from the
-tail and fish parameters (the same parameter files as the simulator's) are built at start-up by
-:func:`fishtail_pilot.steering.steering_from_values`. The watchdog stops the carrier when no
-``cmd_vel`` arrives for ``cmd_timeout_sec`` (a goal needs no repeating); a new ``cmd_vel`` cancels
-a goal. Without odometry for ``odom_timeout_sec`` the carrier stops until it is back (ERROR on
-/diagnostics meanwhile); the command or goal stands. The pivot keeps its position when the
-carrier stops.
+A thin rclpy shell around the control law :class:`fishtail_pilot.pilot.Pilot`, so that the fish
+is driven like any mobile base; its steering map is built at start-up from the same tail and fish
+parameter files as the simulator's (:func:`fishtail_pilot.steering.steering_from_values`). It
+stops the carrier when ``cmd_vel`` or the odometry stop. Topics, parameters and behaviour:
+docs/steering.md ("The pilot").
 """
 
 from __future__ import annotations

@@ -1,28 +1,11 @@
 """The pilot's control law: a velocity command or a goal in, carrier and pivot commands out.
 
-Plain Python (no rclpy); :mod:`fishtail_pilot.node` wires it to ``cmd_vel``,
-``goal_pose``, ``fish/odom`` and the driver's command topics.
-
-The fish's speed and heading oscillate within every beat (the tail pushes it sideways and back
-and forth once a carrier revolution), so the pilot steers by their means over the last beat
-(:class:`BeatAverage`), as a helmsman looks through the wiggle.
-
-* **Speed**: feed-forward from the steady-speed map (the cruising speed is proportional to the
-  beat frequency: U = (U/f) f, the spec's time-scaling law) plus proportional-integral feedback on
-  the beat-mean surge speed, with the integral frozen while the carrier is at its limit.
-* **Heading**: the demand, as yaw per beat, is the commanded yaw rate over the beat frequency plus
-  a proportional term on the error between a heading reference (the command integrated over
-  time, or the goal's bearing) and the beat-mean heading. The steering means (:class:`Steering`)
-  turns the demand (r / f depends on the geometry only) into its actuator's input.
-* **Goal**: head for it, steering on the beat-mean heading brought up to now with the beat's
-  mean yaw rate (its bearing swings fast near it), pass it straight while it lies inside the
-  tightest turning circle, slow down within ``slow_down_distance_m``, stop the carrier within
-  ``goal_tolerance_m``.
-* **Limits**: a speed or a yaw rate beyond what the fish can do is flown at the limit and reported
-  (:attr:`Pilot.limit_reports`) with the achievable value; never silently clipped.
-
-The time of every call is the caller's (the odometry stamps and the node's clock share one time
-base in the suite), in seconds.
+Plain Python (no rclpy; :mod:`fishtail_pilot.node` wires it to the topics), so that the law runs
+and is tested in closed loop without ROS. It steers by the fish's speed and heading averaged over
+the last beat (:class:`BeatAverage`), since both wiggle within every beat: speed by feed-forward
+and PI feedback, heading by a yaw-per-beat demand that a :class:`Steering` means turns into its
+actuator's input. Times are the caller's, in seconds. The law, its gains and its measured
+responses: docs/steering.md ("The pilot").
 """
 
 from __future__ import annotations

@@ -36,7 +36,9 @@ def steering_from_values(
 ) -> tuple[SteeringChannel, float]:
     """The means the parameters name, measured for ``tail`` and ``fish``, and U/f [m] straight.
 
-    Raises the map's errors (e.g. a stroke the linkage cannot reach).
+    Raises:
+        SwimInputError: the map's, e.g. a stroke it cannot tabulate.
+        ValueError: a ``steering`` value that names no means.
     """
     from fishtail_pilot.steering_map import build_steering_map
 

@@ -1,23 +1,11 @@
 """The steering map: each means of steering, its input against the steady yaw and distance per beat.
 
-What a pilot needs at run time, built from the tail and the fish in a fraction of a second (see
-:func:`build_steering_map`). Every force is quadratic in velocity, so the heading change per beat
-r̄/f and the distance per beat Ū/f of a steady turn depend on the geometry and the input only,
-not on the beat frequency: one table serves every carrier speed, and the yaw rate at beat
-frequency f is (r̄/f) f. The map is built at a carrier speed of 2 pi rad/s (f = 1 Hz).
-
-Means (each satisfies :class:`fishtail_pilot.pilot.Steering`):
-
-* :class:`ModulationChannel` (``"modulation"``, one motor): the input is a signed depth s in
-  [-0.9, 0.9]: s >= 0 runs the carrier at depth s with the phase that turns left most strongly,
-  s < 0 at depth -s with the phase that turns right most strongly (both found by a phase scan).
-* :class:`PivotChannel` (``"pivot"``, a second actuator): the input is the pivot shift [m] across
-  the actuator's stroke (±30 mm by default), the carrier unmodulated.
-
-Between the tabulated inputs the figures are interpolated linearly, both ways (the input for a
-wanted r̄/f is the inverse of the same broken line, so ``command`` and ``yaw_per_beat_at`` agree).
-Only one monotonic stretch of a table is used, so each yaw per beat has one input: of those that
-can swim straight (their yaw changes sign), the one with the widest span of yaw.
+What the pilot needs at run time to turn a yaw demand into an actuator's input, built from the
+tail and the fish in a fraction of a second (:func:`build_steering_map`). Heading change and
+distance per beat do not depend on the beat frequency, so one table serves every carrier speed.
+:class:`ModulationChannel` (a signed depth) and :class:`PivotChannel` (a pivot shift) each
+satisfy :class:`fishtail_pilot.pilot.Steering`. How the tables are built and inverted:
+docs/steering.md ("The steering map").
 
 >>> import numpy as np
 >>> steering = PivotChannel(np.array([-0.02, 0.0, 0.02]), np.array([-0.3, 0.01, 0.29]),
@@ -79,6 +67,9 @@ def signed_depths(max_depth: float = MAX_DEPTH, count: int = DEPTH_COUNT) -> Flo
     """The modulation table's inputs: -max_depth ... 0 ... max_depth, ``count`` each way with 0.
 
     Spaced as max_depth sin(pi k / 2 (count - 1)): closest where the table bends most.
+
+    Raises:
+        SwimInputError: ``max_depth`` outside (0, MAX_DEPTH] or fewer than 2 depths.
     """
     if not (0.0 < max_depth <= MAX_DEPTH) or count < 2:
         raise SwimInputError(
@@ -110,7 +101,12 @@ class SteeringChannel(abc.ABC):
         yaw_per_beat_rad: npt.ArrayLike,
         distance_per_beat_m: npt.ArrayLike,
     ) -> None:
-        """Keep the table (inputs increasing), cut to its monotonic stretch round straight ahead."""
+        """Keep the table (inputs increasing), cut to its monotonic stretch round straight ahead.
+
+        Raises:
+            SwimInputError: columns of unequal length or under two rows, a non-finite value, or
+                inputs that do not increase.
+        """
         table = [np.asarray(values, dtype=float).ravel() for values in
                  (inputs, yaw_per_beat_rad, distance_per_beat_m)]  # fmt: skip
         if len({values.size for values in table}) != 1 or table[0].size < 2:
@@ -166,7 +162,11 @@ class SteeringChannel(abc.ABC):
         return float(np.interp(yaw_per_beat_rad, self.yaw_per_beat_rad[order], self.inputs[order]))
 
     def input_for_yaw_rate(self, yaw_rate_rad_s: float, beat_frequency_hz: float) -> float:
-        """The input giving a steady yaw rate [rad/s] at ``beat_frequency_hz`` (> 0)."""
+        """The input giving a steady yaw rate [rad/s] at ``beat_frequency_hz`` (> 0).
+
+        Raises:
+            SwimInputError: a beat frequency that is not > 0.
+        """
         if not beat_frequency_hz > 0.0:
             raise SwimInputError(f"beat frequency must be > 0 Hz, got {beat_frequency_hz!r}")
         return self.input_for(yaw_rate_rad_s / beat_frequency_hz)
@@ -312,7 +312,11 @@ def _shifted(progress: Callable[[int], None], done: int) -> Callable[[int], None
 def pivot_shifts(
     tail: Tail, stroke_m: float = PIVOT_STROKE_M, count: int = PIVOT_COUNT
 ) -> FloatArray:
-    """``count`` shifts evenly across ``stroke_m`` each way, kept within reach of the linkage."""
+    """``count`` shifts evenly across ``stroke_m`` each way, kept within reach of the linkage.
+
+    Raises:
+        SwimInputError: a stroke that is not > 0 or fewer than 2 shifts.
+    """
     low, high = tail.pivot_shift_range()
     if not (stroke_m > 0.0 and count >= 2):
         raise SwimInputError(
@@ -361,7 +365,11 @@ class SteeringMap(NamedTuple):
     build_time_s: float
 
     def means(self, name: str) -> SteeringChannel:
-        """The means called ``name``; ValueError naming the available ones otherwise."""
+        """The means called ``name``.
+
+        Raises:
+            ValueError: no means of that name (naming the available ones).
+        """
         available = {channel.name: channel for channel in (self.modulation, self.pivot)}
         if name not in available:
             raise ValueError(f"no steering means {name!r}: available {sorted(available)}")
@@ -380,10 +388,10 @@ def build_steering_map(
 ) -> SteeringMap:
     """Run the steady turns of ``tail`` on ``fish`` and tabulate them per beat.
 
-    Three batches (25, 31 and 14 fish) of 60 beats at 64 steps a beat: measured 0.4 s for
-    mechanism 1 and 0.6 s for mechanism 2 with the compiled integrator on a busy 2-core
-    machine (plus about 5 s the first time a machine compiles the integrator; without numba,
-    a few minutes).
+    Three batches, well under a second with the compiled integrator (docs/steering.md).
+
+    Raises:
+        SwimInputError: table sizes or a stroke the functions above refuse.
     """
     started = time.perf_counter()
     study = modulation_study(
