@@ -50,9 +50,9 @@ class OneLineErrorParser(argparse.ArgumentParser):
         self.exit(2, f"{program}: error: {message} (see {self.prog} --help)\n")
 
 
-def flag_name(spec: ParameterSpec) -> str:
-    """The flag of a parameter: ``pivot_offset_m`` -> ``--pivot-offset-m``."""
-    return "--" + spec.name.replace("_", "-")
+def flag_name(name: str) -> str:
+    """The flag of a parameter's name: ``pivot_offset_m`` -> ``--pivot-offset-m``."""
+    return "--" + name.replace("_", "-")
 
 
 def _typed(spec: ParameterSpec, text: str) -> ParameterValue:
@@ -196,7 +196,7 @@ def add_parameter_options(
     """
     for spec in specs:
         parser.add_argument(
-            flag_name(spec),
+            flag_name(spec.name),
             dest=spec.name,
             type=functools.partial(parse_value, spec),
             default=None if optional else spec.default,
@@ -214,7 +214,7 @@ def add_parameter_flags(group: argparse._ActionsContainer, specs: Iterable[Param
     """
     for spec in specs:
         group.add_argument(
-            flag_name(spec),
+            flag_name(spec.name),
             dest=spec.name,
             type=functools.partial(_typed, spec),
             metavar=_metavar(spec),

@@ -19,7 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from fishtail_common.command_line import UsageError, add_parameter_flags, finite_number, value_list
+from fishtail_common.command_line import (
+    UsageError,
+    add_parameter_flags,
+    finite_number,
+    flag_name,
+    value_list,
+)
 from fishtail_common.parameters import ParameterSpec
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
@@ -43,10 +49,6 @@ _ELECTRICAL = ("resistance_ohm", "torque_constant_n_m_a")
 _RPM = 2.0 * math.pi / 60.0
 #: One item of --frequencies.
 FREQUENCY = ParameterSpec("frequency_hz", 1.0, "beat frequency", "Hz", 0.0, exclusive_minimum=True)
-
-
-def _option(name: str) -> str:
-    return "--" + name.replace("_", "-")
 
 
 def _defaults() -> dict[str, float]:
@@ -120,7 +122,7 @@ def add_motor_arguments(parser: argparse.ArgumentParser) -> None:
 def _with_options(message: str) -> str:
     """DcMotorParameters' message with its field names written as the options."""
     names = (*_FIELDS, "stall_torque_n_m", "no_load_speed_rad_s")
-    return re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: _option(m.group(1)), message)
+    return re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: flag_name(m.group(1)), message)
 
 
 def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorParameters:
@@ -139,7 +141,7 @@ def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorPar
             raise UsageError(
                 "give both --stall-torque-n-m and --no-load-speed-rad-s (or -rpm), or neither"
             )
-        mixed = [_option(name) for name in _ELECTRICAL if name in given]
+        mixed = [flag_name(name) for name in _ELECTRICAL if name in given]
         if mixed:
             raise UsageError(
                 f"{' and '.join(mixed)} cannot go with --stall-torque-n-m: the datasheet figures "
