@@ -167,7 +167,8 @@ def parameter_help(spec: ParameterSpec, with_default: bool = True) -> str:
     >>> parameter_help(fps), parameter_help(fps, with_default=False)
     ('frames [1/s] (> 0, <= 50; default 24)', 'frames [1/s] (> 0, <= 50)')
     """
-    notes = [note for note in (_bounds(spec),) if note]
+    bounds = _bounds(spec)
+    notes = [bounds] if bounds else []
     if with_default:
         notes.append(f"default {_shown(spec.default)}")
     text = f"{spec.text} ({'; '.join(notes)})" if notes else spec.text

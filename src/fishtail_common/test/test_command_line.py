@@ -4,6 +4,7 @@ import math
 import pytest
 
 from fishtail_common.command_line import (
+    DURATION,
     OneLineErrorParser,
     add_parameter_flags,
     add_parameter_options,
@@ -100,6 +101,16 @@ def test_a_range_checks_its_ends_count_and_order(text, words):
     assert spaced_range(SPEED, STEPS, "2:8:4") == (2.0, 8.0, 4)
     with pytest.raises(argparse.ArgumentTypeError, match=words):
         spaced_range(SPEED, STEPS, text)
+
+
+def test_a_duration_is_optional_and_positive(capsys):
+    parser = OneLineErrorParser(prog="fishtail-demo")
+    add_parameter_options(parser, [DURATION], optional=True)
+    assert parser.parse_args([]).duration is None
+    assert parser.parse_args(["--duration", "0.5"]).duration == 0.5
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--duration", "0"])
+    assert "duration = 0.0 is outside (0.0, inf] s" in capsys.readouterr().err
 
 
 def test_a_finite_number():
