@@ -1,13 +1,11 @@
 """Motor backends behind one small interface: start, set speed, read the encoder, stop, close.
 
-The node owns the timing and the watchdog; a backend only talks to its motor, and says what it
-needs of the node (:meth:`MotorBackend.watchdog_refusal`, :meth:`MotorBackend.set_command_hold`)
-and how often it can have a new sample (:attr:`MotorBackend.max_sample_rate_hz`). This module
-holds the interface and the simulated motor's backend; the board's is
-:mod:`fishtail_driver.serial_backend`. The simulated backend runs any :class:`SimMotor`: the
-first-order speed lag (:class:`fishtail_plant.motor.first_order.SimulatedMotor`) or the DC gear
-motor under the firmware's speed loop
-(:class:`fishtail_plant.motor.pid_dc_motor.PidDrivenDcMotor`). It does not import rclpy.
+The node owns the timing and the watchdog; a backend only talks to its motor and says what it
+needs of the node (:meth:`MotorBackend.watchdog_refusal`, :meth:`MotorBackend.set_command_hold`,
+:attr:`MotorBackend.max_sample_rate_hz`). Here: the interface and the simulated backend, which runs
+any :class:`SimMotor` (:mod:`fishtail_plant.motor.first_order`,
+:mod:`fishtail_plant.motor.pid_dc_motor`); the board's is :mod:`fishtail_driver.serial_backend`.
+No rclpy.
 """
 
 from __future__ import annotations

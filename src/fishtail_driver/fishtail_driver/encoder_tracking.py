@@ -1,21 +1,11 @@
 """The board's encoder readings -> a continuous carrier angle: unwrapping, plausibility, re-bases.
 
-Pure logic (no I/O, no threads): the serial backend feeds it every reading with the time the
-board took it, and publishes what it returns.
-
-- The board's counter is signed 32-bit and wraps; :class:`CountUnwrapper` takes each step the
-  shortest way round, so the count stays continuous across the wrap.
-- A board that resets (power cycle, brown-out, a reconnect to a board that restarted) counts
-  from 0 again. The published angle must not jump back: the count is *re-based* (the angle
-  holds its last value and moves on from the new count). A reading of ``0 0`` after a gap, a
-  step larger than the motor can make, or a step against the motor's direction is a reset.
-  Motion the board did not count is unknown, so a re-base may shift the carrier phase by a
-  constant; each one is reported with the reason.
-- A reading that disagrees with the speed estimate is *held* for one reading: if the next one
-  continues from it, the step was real (motion, or a reset when it is impossible); if the next
-  one continues from the reading before, the held one was a corrupt value that happened to
-  parse (a flipped digit) and is dropped as an *outlier*.
-- The velocity is the count difference over a sliding window.
+Pure logic (no I/O, no threads), so that every fault can be tested without a port: the serial
+backend feeds it each reading with the time the board took it and publishes what it returns.
+:class:`CountUnwrapper` follows the 32-bit counter across its wrap; :class:`EncoderTracker`
+re-bases the angle after a board reset (it must not jump back), drops corrupt readings that
+happen to parse, and estimates the velocity. The rules: docs/serial.md ("What motor/joint_state
+and /diagnostics show", "Carrier-phase calibration").
 
 >>> from fishtail_plant.motor.board_units import Scale
 >>> tracker = EncoderTracker(Scale(counts_per_revolution=1000), "left", max_speed_rad_s=20.0)
@@ -125,7 +115,7 @@ class Tracked:
 
 
 class EncoderTracker:
-    """One channel's readings -> continuous angle and velocity; see the module docstring.
+    """One channel's readings -> continuous angle and velocity, re-based after board resets.
 
     Args:
         scale: the encoder's units.
@@ -137,7 +127,11 @@ class EncoderTracker:
     def __init__(
         self, scale: Scale, channel: str, max_speed_rad_s: float, velocity_window_s: float = 0.1
     ) -> None:
-        """Start with no reading."""
+        """Start with no reading.
+
+        Raises:
+            ValueError: a channel other than "left" or "right".
+        """
         if channel not in CHANNELS:
             raise ValueError(f"channel must be 'left' or 'right', got {channel!r}")
         self.scale = scale

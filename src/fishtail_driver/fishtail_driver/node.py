@@ -1,41 +1,12 @@
 """Driver node: commands the carrier speed and publishes the encoder angle.
 
-Topics (:mod:`fishtail_common.interface`; relative, so a namespace moves the whole suite):
-  sub ``motor/cmd_speed``    std_msgs/Float64, carrier speed [rad/s], >= 0 (one-way motor): a
-                             flat speed profile
-  sub ``motor/cmd_profile``  fishtail_msgs/CarrierSpeedProfile: mean speed [rad/s], depth and
-                             phase [rad] of a once-per-revolution modulation, followed at every
-                             encoder sample the node reads (:mod:`fishtail_driver.profile_command`;
-                             the latest command of either topic wins; a profile that cannot be
-                             run is refused, with what could be, and the previous one stays)
-  pub ``motor/joint_state``  sensor_msgs/JointState, unwrapped carrier angle [rad] and speed
-                             [rad/s], sensor-data QoS, at ``publish_rate_hz``, stamped with the
-                             time the encoder was read (not the publish time); stamps strictly
-                             increase (:mod:`fishtail_driver.stamping`); effort: the torque on
-                             the carrier [N m] where the backend knows it (the sim's dc motor),
-                             else empty
-  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray, every ``diagnostics_period_sec``;
-                             WARN when motor/joint_state is rarer or has longer gaps than the
-                             parameters promise (:mod:`fishtail_common.stream_timing`); the
-                             backend's figures as key values (the dc motor's current_a,
-                             supply_power_w ...), the profile in force; WARN while the latest
-                             profile was refused
-  and the pivot actuator's topics with ``pivot_actuator: sim`` (:mod:`fishtail_driver.pivot_output`)
-
-Parameters: :mod:`fishtail_driver.parameters`; with ``motor_load`` (sim, ``motor_model: dc``) also
-the tail's, its links' and the fish's, read-only, from which the motor's load is built once at start
-(:mod:`fishtail_plant.values`). A watchdog, on a timer of its own (at most 50 ms,
-whatever the publish rate), stops the motor when no command (speed or profile) arrives for
-``cmd_timeout_sec``, and leaves the pivot where it is;
-SIGINT and SIGTERM stop the motor before the node exits (:func:`fishtail_common.ros.run_node`
-calls :meth:`DriverNode.before_exit`). A backend may refuse a disabled watchdog (the serial one
-does) and is told to stop keeping a speed alive once the node has not commanded it for
-``cmd_timeout_sec`` plus :data:`COMMAND_HOLD_MARGIN_S`, so the board's own 2 s auto-stop stops
-the motor if this node hangs.
-
-All callbacks run on one thread (the EventsExecutor of :func:`fishtail_common.ros.spin_until`,
-and the single-threaded executors of the tests and benchmarks), and :meth:`DriverNode.shutdown`
-runs after spinning: the node's state needs no lock (the serial backend locks its own).
+The one node that owns the motor (through a backend of :mod:`fishtail_driver.backends`): it
+follows ``motor/cmd_speed`` or a ``motor/cmd_profile`` at every encoder sample, publishes
+``motor/joint_state`` stamped when the encoder was read, reports on ``/diagnostics``, and stops
+the motor from its own watchdog when commands stop and before it exits. All callbacks run on one
+thread, so the node's state needs no lock (the serial backend locks its own). Topics and
+parameters: README.md ("Topics", "Parameters"), docs/serial.md, docs/motor-load.md ("Running the
+suite on the loaded motor").
 """
 
 from __future__ import annotations
@@ -113,8 +84,10 @@ class DriverNode(SuiteNodeBase):
         """Declare parameters, start the backend and the timers.
 
         ``node_options`` go to :class:`rclpy.node.Node` (``context``, ``parameter_overrides`` ...).
-        A value the parameters or the backend refuse raises ValueError with the reason, before
-        anything is opened.
+
+        Raises:
+            ValueError: with the reason, for a value the parameters, the load or the backend
+                refuse, before anything is opened.
         """
         super().__init__("driver", **node_options)
         values = declare(self, DRIVER_PARAMETERS)

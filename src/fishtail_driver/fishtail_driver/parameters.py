@@ -1,20 +1,10 @@
 """The driver's parameters (name, default, range, meaning: each once) and the backend they make.
 
-Plain Python: the node declares these (:func:`fishtail_common.ros.declare`) and checks run-time
-changes with :meth:`~fishtail_common.parameters.ParameterSpec.check`; :func:`make_backend` turns
-the values in force into the motor backend they describe.
-
-The sim backend's motor is ``motor_model``'s: ``first_order`` (a speed lag,
-``sim_time_constant_sec``) or ``dc`` (a DC gear motor, ``motor_*``, ``supply_voltage_v``,
-``gear_ratio``, ``gearbox_efficiency``, ``rotor_inertia_kg_m2``, the frictions, under the board
-firmware's speed loop with ``pid_k*`` every ``1000 // serial_pid_rate_hz`` ms). The ``dc``
-defaults are a Pololu 37D 12 V motor (:class:`fishtail_plant.motor.dc_motor.
-DcMotorParameters`), whose 30:1 gearbox and 64-count encoder are ``gear_ratio:=30.0`` and
-``encoder_counts_per_revolution:=64`` (not those parameters' defaults: :data:`DC_MOTOR_ENCODER`).
-With ``motor_load`` other than ``none`` the DC motor turns the tail (:mod:`fishtail_driver.
-sim_load`); the node then declares the tail's, links' and fish's parameters as well. ``pivot_*``
-describe the pivot actuator (:mod:`fishtail_plant.pivot_actuator`), simulated beside the
-simulated backend only (:func:`pivot_refusal`).
+Plain Python, so that the node, the launch file and the tests share one table: the node declares
+these and checks run-time changes against them, and :func:`make_backend` turns the values in
+force into the backend they describe (the simulated ``first_order`` or ``dc`` motor, or the
+board). The ``dc`` motor's parameters and defaults: docs/motor-load.md; the serial ones:
+docs/serial.md; the rest: README.md ("Parameters").
 """
 
 from __future__ import annotations
@@ -204,7 +194,12 @@ def make_sim_motor(
     load: LoadTorque = zero_load,
     load_inertia: LoadInertia = zero_load_inertia,
 ) -> SimMotor:
-    """The simulated motor ``motor_model`` names, as the sim backend runs it (for its own clock)."""
+    """The simulated motor ``motor_model`` names, as the sim backend runs it (for its own clock).
+
+    Raises:
+        ValueError: a motor value the model refuses, or a ``dc`` speed loop that would ring
+            (the gains on this gearbox and encoder; the reason names the values and the fix).
+    """
     return _SIM_MOTORS[str(values["motor_model"])](values, load, load_inertia)
 
 
@@ -253,8 +248,11 @@ def make_backend(
     """The backend the ``backend`` parameter names, configured from ``values`` (not started).
 
     ``load`` and ``load_inertia`` are the carrier's load for a simulated motor that feels one
-    (``motor_model`` dc; the DC motor model's docs say what they return); none by default.
-    ValueError, with the reason, for settings the backend cannot work with.
+    (``motor_model`` dc; :mod:`fishtail_plant.motor.dc_motor` says what they return); none by
+    default.
+
+    Raises:
+        ValueError: with the reason, for settings the backend cannot work with.
     """
     return _BACKENDS[str(values["backend"])](values, load, load_inertia)
 

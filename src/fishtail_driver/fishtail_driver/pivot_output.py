@@ -1,22 +1,10 @@
 """The pivot actuator's side of the driver node: its command, its joint state, its diagnostics.
 
-``pivot_actuator`` chooses the output (:func:`make_pivot_output`):
-
-* ``none`` (:class:`NoPivot`): nothing is subscribed or published, no status;
-* ``sim`` (:class:`SimPivot`): a simulated lead screw (:mod:`fishtail_plant.pivot_actuator`)
-
-  sub ``pivot/cmd_position``  std_msgs/Float64, the shift of the pivot S [m], + towards the tail
-  pub ``pivot/joint_state``   sensor_msgs/JointState (``pivot_joint``: position [m], velocity
-                              [m/s]) at every publish tick of the driver, stamped as the
-                              carrier's joint state is: the time the state holds for, on the
-                              driver's one monotonic-to-ROS mapping, strictly increasing
-
-  and a ``pivot`` status on ``/diagnostics``: position, target, the counts, WARN while the latest
-  command was clipped to the stroke (the achievable position in the message) or refused (NaN).
-
-The command watchdog does not touch the pivot: it is a slow positioning axis, not a propulsor, and
-holding its position is what keeps the fish's trim; stopping the carrier is what makes a fish
-whose commands stopped safe. Called on the node's one executor thread, like the rest of the node.
+``pivot_actuator`` chooses the output (:func:`make_pivot_output`): :class:`NoPivot` (no topics,
+no status) or :class:`SimPivot`, the lead-screw model of :mod:`fishtail_plant.pivot_actuator`
+behind ``pivot/cmd_position``, ``pivot/joint_state`` and a ``pivot`` status. The command
+watchdog leaves the pivot where it is. Called on the node's one executor thread. Topics and
+behaviour: docs/serial.md ("The pivot actuator").
 """
 
 from __future__ import annotations

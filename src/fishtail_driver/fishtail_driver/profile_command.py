@@ -1,24 +1,10 @@
 """The carrier command the driver follows: a speed profile over the carrier angle, checked.
 
-``motor/cmd_profile`` asks for the once-per-revolution law of
-:class:`fishtail_kinematics.engine.carrier_profile.CarrierSpeedProfile`,
-
-    phi_dot(phi) = Omega (1 + delta cos(phi - phi_0)) / sqrt(1 - delta²),
-
-and ``motor/cmd_speed`` for a flat one (delta 0). Whichever command was accepted last is the
-profile in force. The driver hands :meth:`CarrierCommand.follow` every carrier angle it measures
-and, while the profile is modulated, commands the motor the speed it returns, so that the
-modulation stays in step with the carrier whatever its speed.
-
-Refused, never clipped (the fish would steer by an amount nobody asked for): a profile with a field
-that is not finite, a negative mean speed, a depth outside [0, MAX_DEPTH], or a peak speed above
-the driver's ``max_speed_rad_s``. The refusal (:class:`CommandRefusedError`) says what the driver
-could run instead: the deepest modulation at that mean speed, the highest mean speed at that
-depth. The profile in force stays. Speed commands keep their rules: negative or non-finite ones
-are refused, faster ones are clamped to the limit and counted (a flat command clamped changes the
-fish's pace, not its course).
-
-Plain Python: the node turns messages into these calls.
+:class:`CarrierCommand` holds the profile in force (``motor/cmd_profile``, or the flat profile of
+``motor/cmd_speed``) and gives the speed to command at every measured carrier angle, so that the
+modulation stays in step with the carrier. A profile it cannot run is refused, never clipped (the
+fish would steer by an amount nobody asked for), with what it could run instead. Plain Python.
+The law, the refusals and what the motor follows: docs/serial.md ("Speed profiles").
 
 >>> command = CarrierCommand(max_speed_rad_s=20.0)
 >>> command.set_profile(6.0, 0.5, 0.0)
@@ -104,10 +90,12 @@ def _achievable(mean: float, depth: float, max_speed: float) -> dict[str, float]
 def check_profile(
     mean_speed_rad_s: float, depth: float, phase_rad: float, max_speed_rad_s: float
 ) -> CarrierSpeedProfile:
-    """The profile these fields describe; :class:`CommandRefusedError` if the driver refuses it.
+    """The profile these fields describe, if the driver can run it.
 
-    The engine's profile says what is wrong with a field (non-finite, a negative mean, a depth
-    outside [0, MAX_DEPTH]); this adds the driver's limit on the peak speed.
+    Raises:
+        CommandRefusedError: a field that is not finite, a negative mean, a depth outside
+            [0, MAX_DEPTH] (the engine's reason), or a peak above ``max_speed_rad_s``; with the
+            achievable values.
     """
     asked = f"mean {mean_speed_rad_s:g} rad/s, depth {depth:g}, phase {phase_rad:g} rad"
     try:
@@ -175,10 +163,10 @@ class CarrierCommand:
         return speed
 
     def set_speed(self, speed_rad_s: float) -> str | None:
-        """A flat profile at ``speed_rad_s``; returns a note to log if it was clamped.
+        """A flat profile at ``speed_rad_s``; returns a note to log if it was clamped to the limit.
 
-        :class:`CommandRefusedError` (nothing changes) for a speed that is not finite or is
-        negative. Clamped to the limit above it.
+        Raises:
+            CommandRefusedError: a speed that is not finite or is negative (nothing changes).
         """
         if not math.isfinite(speed_rad_s) or speed_rad_s < 0.0:
             self.rejected_commands += 1
@@ -198,7 +186,11 @@ class CarrierCommand:
         return note
 
     def set_profile(self, mean_speed_rad_s: float, depth: float, phase_rad: float) -> None:
-        """Make this profile the one in force; :class:`CommandRefusedError` leaves it unchanged."""
+        """Make this profile the one in force.
+
+        Raises:
+            CommandRefusedError: as :func:`check_profile`; the profile in force stays.
+        """
         try:
             profile = check_profile(mean_speed_rad_s, depth, phase_rad, self.max_speed_rad_s)
         except CommandRefusedError as refusal:

@@ -1,33 +1,12 @@
 r"""ROSArduinoBridge serial protocol: a pure codec (no rclpy, no I/O).
 
-The firmware (hbrobotics/ros_arduino_bridge and its forks, e.g. joshnewans/ros_arduino_bridge)
-reads ASCII commands terminated by CR (13), fields separated by one space, and answers each with
-one line ending CR LF:
-
-=====================  ==========================  ===============================================
-command                reply                       meaning
-=====================  ==========================  ===============================================
-``e``                  ``<left> <right>``          encoder counts, signed 32-bit on the board
-``m <left> <right>``   ``OK``                      target speeds [encoder ticks per PID frame];
-                                                   ``m 0 0`` stops and resets the PID
-``r``                  ``OK``                      reset the encoders (and the PID: motor stops)
-``o <left> <right>``   ``OK``                      raw PWM, -255..255 (joshnewans fork only)
-``u kp:kd:ki:ko``      ``OK``                      PID gains
-``b``                  ``" 57600"`` or ``57600``   the baud rate
-anything else          ``Invalid Command``
-=====================  ==========================  ===============================================
-
-Arguments go through ``atoi`` into a 16-bit AVR ``int``, so every number sent is an integer in
-[-32768, 32767] and arguments stay short (the firmware's argument buffers are 16-32 bytes). The
-board's PID runs every ``1000 / PID_RATE`` ms in integer arithmetic: 33 ms, i.e. 30.30 Hz, for
-the default ``PID_RATE`` of 30. The board stops the motors when no ``m`` (or ``o``) arrives for
-more than 2000 ms.
-
-This module encodes commands, splits the byte stream into reply lines (:class:`LineFramer`),
-parses replies (raising :class:`ReplyError` with a machine-readable ``kind`` and a precise
-``reason`` for anything malformed) and converts carrier speeds to ticks per PID frame
-(:class:`Scale`). Turning the board's wrapping, resettable counter into a continuous angle is
-:mod:`fishtail_driver.encoder_tracking`'s job.
+Encodes the firmware's commands (``e``, ``m``, ``r``, ``o``, ``u``, ``b``), splits the byte
+stream into reply lines (:class:`LineFramer`) and parses replies, raising :class:`ReplyError`
+with a countable ``kind`` and a precise ``reason`` for anything malformed; pure, so that it can be
+fuzzed and tested without a port. Speeds in ticks per PID frame:
+:class:`~fishtail_plant.motor.board_units.Scale`; a continuous angle from the counts:
+:mod:`fishtail_driver.encoder_tracking`. The protocol: docs/serial.md
+("The protocol in one table").
 
 >>> encode_motor_speeds(68, 0)
 b'm 68 0\r'
@@ -127,7 +106,11 @@ def encode_get_baud() -> bytes:
 
 
 def encode_motor_speeds(left: int, right: int) -> bytes:
-    """``m left right``: target speeds in encoder ticks per PID frame (16-bit ints)."""
+    """``m left right``: target speeds in encoder ticks per PID frame (16-bit ints).
+
+    Raises:
+        ValueError: a target that is not an integer in the 16-bit range.
+    """
     _check_int16("left ticks per frame", left)
     _check_int16("right ticks per frame", right)
     return f"m {left} {right}\r".encode("ascii")
@@ -139,7 +122,11 @@ def encode_stop() -> bytes:
 
 
 def encode_raw_pwm(left: int, right: int) -> bytes:
-    """``o left right``: raw PWM in [-255, 255] (joshnewans fork; elsewhere Invalid Command)."""
+    """``o left right``: raw PWM in [-255, 255] (joshnewans fork; elsewhere Invalid Command).
+
+    Raises:
+        ValueError: a PWM that is not an integer in [-255, 255].
+    """
     for name, value in (("left PWM", left), ("right PWM", right)):
         _check_int16(name, value)
         if abs(value) > PWM_MAX:
@@ -148,7 +135,12 @@ def encode_raw_pwm(left: int, right: int) -> bytes:
 
 
 def encode_update_pid(kp: int, kd: int, ki: int, ko: int) -> bytes:
-    """``u kp:kd:ki:ko``: PID gains (integers; the whole argument must fit the board's buffer)."""
+    """``u kp:kd:ki:ko``: PID gains (integers; the whole argument must fit the board's buffer).
+
+    Raises:
+        ValueError: a gain that is not a 16-bit integer, or an argument longer than the
+            firmware's buffer.
+    """
     for name, value in (("kp", kp), ("kd", kd), ("ki", ki), ("ko", ko)):
         _check_int16(name, value)
     argument = f"{kp}:{kd}:{ki}:{ko}"
@@ -161,7 +153,11 @@ def encode_update_pid(kp: int, kd: int, ki: int, ko: int) -> bytes:
 
 
 def channel_ticks(channel: str, ticks: int) -> tuple[int, int]:
-    """(left, right) ticks for driving only ``channel`` ("left" or "right")."""
+    """(left, right) ticks for driving only ``channel`` ("left" or "right").
+
+    Raises:
+        ValueError: another channel name.
+    """
     if channel == "left":
         return ticks, 0
     if channel == "right":
@@ -190,7 +186,11 @@ class LineFramer:
     """
 
     def __init__(self, max_line_bytes: int = MAX_REPLY_BYTES) -> None:
-        """Create an empty framer."""
+        """Create an empty framer.
+
+        Raises:
+            ValueError: ``max_line_bytes`` < 1.
+        """
         if max_line_bytes < 1:
             raise ValueError(f"max_line_bytes must be >= 1, got {max_line_bytes}")
         self.max_line_bytes = max_line_bytes
@@ -268,7 +268,12 @@ def _common_rejections(text: str, line: bytes, expected: str) -> None:
 
 
 def parse_encoders(line: bytes) -> tuple[int, int]:
-    """Parse the reply to ``e``: two signed 32-bit integers separated by one space."""
+    """Parse the reply to ``e``: two signed 32-bit integers separated by one space.
+
+    Raises:
+        ReplyError: anything else, its ``kind`` saying what (``garbled``, ``binary``,
+            ``out_of_range``, ``unexpected``, ``invalid_command``, ...).
+    """
     expected = "encoder counts '<left> <right>' were expected"
     text = _text(line)
     _common_rejections(text, line, expected)
@@ -292,7 +297,11 @@ def parse_encoders(line: bytes) -> tuple[int, int]:
 
 
 def parse_ok(line: bytes) -> None:
-    """Parse the reply to ``m``, ``r``, ``o`` or ``u``: exactly ``OK``."""
+    """Parse the reply to ``m``, ``r``, ``o`` or ``u``: exactly ``OK``.
+
+    Raises:
+        ReplyError: anything else (``unexpected`` for another command's reply).
+    """
     expected = "'OK' was expected"
     text = _text(line)
     _common_rejections(text, line, expected)
@@ -304,7 +313,11 @@ def parse_ok(line: bytes) -> None:
 
 
 def parse_baud(line: bytes) -> int:
-    """Parse the reply to ``b``: the baud rate, with or without a leading space."""
+    """Parse the reply to ``b``: the baud rate, with or without a leading space.
+
+    Raises:
+        ReplyError: anything else (``unexpected`` for another command's reply).
+    """
     expected = "a baud rate was expected"
     text = _text(line)
     _common_rejections(text, line, expected)

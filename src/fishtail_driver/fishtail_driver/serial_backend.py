@@ -1,28 +1,11 @@
 """The ``serial`` motor backend: a ROSArduinoBridge motor board over a serial port (pyserial).
 
-All serial I/O runs in one background thread owned by the backend; the methods the node calls
-only exchange state under a lock and never wait for the device (:meth:`~SerialBackend.close`
-waits, bounded, for the thread to send ``m 0 0`` and finish). The thread:
-
-- opens the port and waits for the board to answer in step
-  (:meth:`fishtail_driver.serial_link.SerialLink.handshake`), with bounded exponential backoff
-  between attempts; a device missing at start is retried, not fatal (status() is ERROR meanwhile);
-- polls ``e`` at ``poll_rate_hz``; :class:`fishtail_driver.encoder_tracking.EncoderTracker` turns
-  the readings into the continuous angle and its velocity, each dated when its request reached
-  the board; a re-based angle (board reset) keeps status() WARN for ``phase_warn_s``;
-- sends ``m`` when the commanded speed changes (a stop at once; a change of a running speed at
-  most once per PID frame: the firmware uses the target in force at each frame, and a speed
-  profile changes it at every sample) and re-sends it every ``resend_period_s`` while it is not
-  zero, so the board's 2 s auto-stop never fires while motion is commanded, but only while the
-  last :meth:`SerialBackend.set_speed` is at most ``command_hold_s`` old: if the node stops
-  calling (its executor hangs, its watchdog with it), the board's auto-stop stops the motor;
-- declares the link lost (ERROR, port closed, reconnect with backoff) on an I/O error, a path that
-  vanished or points to another device, or no valid reply for ``stale_timeout_s``; a transient
-  fault costs one exchange (:meth:`~fishtail_driver.serial_link.SerialLink.exchange`).
-
-:meth:`SerialBackend.read` returns each new sample once and None when none arrived since the
-previous call (and while disconnected): the driver then skips that publish tick, so
-``motor/joint_state`` carries only real readings, at most at the poll rate.
+All serial I/O runs in one background thread owned by the backend, so that the node's callbacks
+never wait for the device: they only exchange state with it under a lock. The thread connects
+and reconnects with backoff, polls the encoder, sends and re-sends the speed (only while the node
+keeps commanding, so the board's own auto-stop takes over if the node hangs) and counts every
+fault. :meth:`SerialBackend.read` returns each new sample once, so ``motor/joint_state`` carries
+only real readings. Behaviour, faults and status: docs/serial.md.
 """
 
 from __future__ import annotations
@@ -55,7 +38,7 @@ from fishtail_driver.status_counters import StatusCounters
 
 
 class SerialBackend:
-    """MotorBackend for a ROSArduinoBridge board; see the module docstring."""
+    """MotorBackend for a ROSArduinoBridge board, its I/O on a thread of its own."""
 
     name = "serial"
 
@@ -154,6 +137,9 @@ class SerialBackend:
 
         None: re-send it for as long as it is commanded. The driver node sets its watchdog
         timeout plus a margin, so that the board's auto-stop takes over if the node hangs.
+
+        Raises:
+            ValueError: a hold that is neither None nor > 0.
         """
         if hold_s is not None and not hold_s > 0.0:
             raise ValueError(f"hold_s must be > 0 or None, got {hold_s!r}")

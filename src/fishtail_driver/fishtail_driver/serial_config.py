@@ -33,8 +33,12 @@ class SerialConfig:
         pid_gains: optional (kp, kd, ki, ko) sent with ``u`` after every connect.
         command_hold_s: re-send a non-zero speed only while the last set_speed() call is at most
             this old (None: keep re-sending it until it changes); see
-            :meth:`SerialBackend.set_command_hold`.
+            :meth:`~fishtail_driver.serial_backend.SerialBackend.set_command_hold`.
         phase_warn_s: status() is WARN for this long after the angle was re-based.
+
+    Raises:
+        ValueError: a setting that cannot work (naming it and its bound), e.g. a resend period
+            that would not beat the board's 2 s auto-stop.
     """
 
     port: str

@@ -79,7 +79,7 @@ class Handshake:
 
 
 class SerialLink:
-    """The port, its line framing and the request/reply discipline; see the module docstring."""
+    """The port, its line framing and the request/reply discipline of one board."""
 
     def __init__(
         self,
@@ -110,7 +110,11 @@ class SerialLink:
     # --- the port --------------------------------------------------------------------------
 
     def open(self) -> None:
-        """Open the port (exclusively, for a device path); LinkLostError naming the cause."""
+        """Open the port (exclusively, for a device path).
+
+        Raises:
+            LinkLostError: the device is missing or cannot be opened (naming the cause).
+        """
         config = self.config
         if not config.is_url and not os.path.exists(config.port):
             self.counters.count("port_missing")
@@ -154,7 +158,11 @@ class SerialLink:
                 pass
 
     def check_path(self) -> None:
-        """LinkLostError when the device path vanished or now points to another device."""
+        """Check that the device path still leads to the device that was opened.
+
+        Raises:
+            LinkLostError: the path vanished or now points to another device.
+        """
         config = self.config
         if config.is_url:
             return
@@ -177,7 +185,11 @@ class SerialLink:
         return len(payload) * self.config.byte_s
 
     def write(self, payload: bytes) -> None:
-        """Send bytes; LinkLostError if the port fails or the write times out."""
+        """Send bytes.
+
+        Raises:
+            LinkLostError: the port failed or the write timed out.
+        """
         port = self._open_port()
         try:
             port.write(payload)
@@ -188,7 +200,12 @@ class SerialLink:
             raise LinkLostError(f"write to {self.config.port} failed: {error}") from None
 
     def read_line(self, deadline: float) -> bytes | OversizedLine:
-        """The next reply line; ReadTimeoutError at ``deadline``, LinkLostError if the port dies."""
+        """The next reply line (or the marker of an oversized one).
+
+        Raises:
+            ReadTimeoutError: no whole line by ``deadline`` (with what did arrive).
+            LinkLostError: the port failed.
+        """
         port = self._open_port()
         while True:
             if self._lines:
@@ -210,6 +227,9 @@ class SerialLink:
 
         The silence lasts ``quiet_s`` (default: 30 byte times, at least 5 ms); the wait is bounded
         by ``limit_s`` (default: the read timeout). Returns whether any bytes arrived meanwhile.
+
+        Raises:
+            LinkLostError: the port failed.
         """
         port = self._open_port()
         noise = bool(self._framer.pending) or bool(self._lines)
@@ -236,7 +256,11 @@ class SerialLink:
         return noise
 
     def drain_input(self) -> tuple[list[bytes | OversizedLine], int]:
-        """Take all buffered input: (the whole lines, 1 if a line was begun (dropped) else 0)."""
+        """Take all buffered input: (the whole lines, 1 if a line was begun (dropped) else 0).
+
+        Raises:
+            LinkLostError: the port failed.
+        """
         port = self._open_port()
         try:
             waiting = port.in_waiting
@@ -252,7 +276,11 @@ class SerialLink:
     # --- exchanges -------------------------------------------------------------------------
 
     def exchange(self, payload: bytes, parse: Callable[[bytes], T]) -> Answered[T] | Failed:
-        """Send one request and parse its reply; a transient fault is counted and fenced off."""
+        """Send one request and parse its reply; a transient fault is counted and fenced off.
+
+        Raises:
+            LinkLostError: the port failed, or the fence found no valid reply for too long.
+        """
         sent = self._clock()
         self.write(payload)
         timeout_s = self.config.read_timeout_s
@@ -305,20 +333,13 @@ class SerialLink:
     def fence(self) -> None:
         """Get back in step after a failed exchange: no late reply may pass for a later one's.
 
-        The protocol has no request tags, and a board may answer after the read timeout: sent at
-        once, the next request would take that late reply for its own (an old reading with a
-        current stamp). So: write a probe (``b``) and discard every line until a probe reply
-        that can only answer a probe written after the failed request; the board answers in
-        order, so by then every earlier request has been answered or lost, and the next reply
-        answers the next request.
+        The protocol has no request tags, so a probe (``b``) is written and every line discarded
+        (``discarded_replies``) until a probe reply that can only answer a probe written after the
+        failed request: one more than the probes still unanswered from earlier fences. Why this
+        is enough: docs/serial.md ("Replies that come late"). When closing, one attempt only.
 
-        Every probe reply looks the same, and probes of earlier fences may still be on their way
-        (a probe re-sent after a timeout, or one the previous fence did not wait for): their
-        replies come first. So the fence waits for one probe reply more than there are probes
-        still unanswered from before it; a lost probe reply only costs another probe. Discarded
-        lines (replies to other requests) are counted (``discarded_replies``). Probe replies do
-        not count as valid replies: a board that answers only late is declared lost after
-        ``stale_timeout_s``. When closing, one attempt only.
+        Raises:
+            LinkLostError: the port failed, or no valid reply came for ``stale_timeout_s``.
         """
         config = self.config
         self.counters.count("resyncs")
@@ -362,8 +383,10 @@ class SerialLink:
         """Wait for the board to answer ``b``, then for two ``e`` replies in step.
 
         Boards that reset when the port opens ignore input for a second or two while booting,
-        hence the wait of up to ``handshake_timeout_s``. LinkLostError when the board does not
-        answer (in step) in time, or when closing.
+        hence the wait of up to ``handshake_timeout_s``.
+
+        Raises:
+            LinkLostError: the board did not answer (in step) in time, or the link is closing.
         """
         config = self.config
         deadline = self._clock() + config.handshake_timeout_s

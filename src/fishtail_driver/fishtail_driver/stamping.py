@@ -1,24 +1,10 @@
 """Message stamps for encoder samples: one monotonic-to-ROS clock mapping, strictly increasing.
 
-The backends date each sample on the monotonic clock (when the encoder was read); messages carry
-ROS time. Computing "ROS now minus the sample's age" reads two clocks separately, and a process
-preempted between the two readings dates the sample wrong by the length of the preemption (tens
-of ms on a busy machine), sometimes before the previous sample. Instead:
-
-* :class:`ClockMapping` keeps one offset (ROS minus monotonic). Each observation reads the ROS
-  clock between two monotonic readings; an observation whose bracket is wider than
-  ``max_bracket_ns`` (the process was preempted in between) is not used. Small differences
-  between the observed and the current offset are slewed in (at most ``slew_fraction`` of the
-  monotonic time elapsed since the previous observation), so estimation noise never moves a
-  stamp back; a difference of ``step_ns`` or more is a step of the ROS clock (set by hand or by
-  NTP) and is followed at once, so stamps stay on the ROS clock the other nodes read.
-* :class:`IncreasingStamps` passes a stamp only if it is after the previous one it passed (and
-  after 0). A stamp that is not is dropped, never nudged: a nudged stamp would state a time the
-  encoder was not read at, and consumers differentiate by the stamps. Only a backward step of
-  the ROS clock, or a backend dating a sample before the previous one, leads to drops; after a
-  backward step they last until the ROS clock has caught up with the last stamp.
-
-All times are integer nanoseconds. This module does not import rclpy.
+The backends date samples on the monotonic clock and messages carry ROS time. :class:`ClockMapping`
+keeps one offset between them, observed only where the process was not preempted and slewed, so
+that a stamp is never dated wrong by a preemption; :class:`IncreasingStamps` drops, never nudges,
+a stamp that is not after the previous one (consumers differentiate by the stamps). All times are
+integer nanoseconds; no rclpy. Why and how: docs/serial.md ("Stamps").
 """
 
 from __future__ import annotations
@@ -32,7 +18,7 @@ STEP_NS = 100_000_000
 
 
 class ClockMapping:
-    """Monotonic time -> ROS time through one offset, observed and slewed; see the module doc."""
+    """Monotonic time -> ROS time through one offset, observed and slewed."""
 
     def __init__(
         self,
@@ -40,7 +26,11 @@ class ClockMapping:
         slew_fraction: float = SLEW_FRACTION,
         step_ns: int = STEP_NS,
     ) -> None:
-        """No offset until the first :meth:`observe`."""
+        """No offset until the first :meth:`observe`.
+
+        Raises:
+            ValueError: a negative bracket, a slew fraction outside (0, 1) or a step <= 0.
+        """
         if max_bracket_ns < 0 or not 0.0 < slew_fraction < 1.0 or step_ns <= 0:
             raise ValueError("need max_bracket_ns >= 0, 0 < slew_fraction < 1, step_ns > 0")
         self.max_bracket_ns = max_bracket_ns
@@ -54,7 +44,15 @@ class ClockMapping:
         self.steps = 0
 
     def observe(self, monotonic_before_ns: int, ros_ns: int, monotonic_after_ns: int) -> None:
-        """Account for a ROS clock reading taken between two monotonic readings."""
+        """Account for a ROS clock reading taken between two monotonic readings.
+
+        A small difference is slewed in, one of ``step_ns`` or more (the ROS clock was set) is
+        followed at once; an observation whose bracket is wider than ``max_bracket_ns`` is not
+        used.
+
+        Raises:
+            ValueError: the monotonic readings are out of order.
+        """
         if monotonic_after_ns < monotonic_before_ns:
             raise ValueError("the monotonic readings are out of order")
         middle = (monotonic_before_ns + monotonic_after_ns) // 2
@@ -77,7 +75,11 @@ class ClockMapping:
         self._observed_at_ns = max(self._observed_at_ns, middle)
 
     def to_ros_ns(self, monotonic_ns: int) -> int:
-        """The ROS time of a monotonic time (RuntimeError before the first observation)."""
+        """The ROS time of a monotonic time.
+
+        Raises:
+            RuntimeError: before the first observation.
+        """
         if self.offset_ns is None:
             raise RuntimeError("no clock observation yet")
         return monotonic_ns + self.offset_ns
