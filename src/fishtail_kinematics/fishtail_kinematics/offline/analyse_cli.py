@@ -1,10 +1,8 @@
 """``fishtail-analyse``: a recording (rosbag2 bag or the CLI's CSV) into a report and figures.
 
-Recomputes the tail from the recorded carrier angle with the engine and reports the worst
-disagreement with the recorded tail state, the per-beat symmetry table (the monitor's statistics
-and verdicts), the beat frequency, and writes theta3.png, tip_path.png (and theta3_theta5.png for
-the undulatory mechanism). Exit status: 0 done, 1 the recording disagrees with the engine for this
-geometry, 2 unusable input (one-line error).
+Checks a run afterwards against the engine and the monitor. Exit status: 0 done, 1 the recording
+disagrees with the engine for this geometry, 2 unusable input (one-line error). Report, figures
+and options: docs/recording.md.
 """
 
 from __future__ import annotations

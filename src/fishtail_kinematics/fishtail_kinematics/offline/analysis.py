@@ -1,13 +1,10 @@
 """Offline analysis of a recording: recompute the tail, compare, tabulate the beats, swimming.
 
-Pure Python (rosbags, numpy; no rclpy). From the recorded carrier angle (read by
-:mod:`~fishtail_kinematics.offline.recording`) the tail is recomputed with the engine
-(vectorised) and compared with the recorded tail state, matched by stamp; the per-beat symmetry
-table comes from :func:`fishtail_kinematics.engine.symmetry.beats_of` and
-:func:`~fishtail_kinematics.engine.symmetry.judge`, the code the monitor node runs; the swimming
-figures from :mod:`fishtail_kinematics.engine.swimming`, as the monitor computes them. The
-figures are drawn by :mod:`~fishtail_kinematics.offline.analysis_figures`, the text written by
-:mod:`~fishtail_kinematics.offline.analysis_report`.
+What ``fishtail-analyse`` computes (no rclpy), with the monitor's own code, so that a recording
+is judged as the running suite judged it. The figures are drawn by
+:mod:`~fishtail_kinematics.offline.analysis_figures`, the text by
+:mod:`~fishtail_kinematics.offline.analysis_report`. What is compared and how:
+docs/recording.md ("fishtail-analyse").
 """
 
 from __future__ import annotations
@@ -122,7 +119,12 @@ class Report:
 def choose_geometry(
     mechanism: str | None, config: Path | None
 ) -> tuple[Geometry, str, dict[str, object]]:
-    """Geometry, where it came from, and all parameters of the file (for tolerances etc.)."""
+    """Geometry, where it came from, and all parameters of the file (for tolerances etc.).
+
+    Raises:
+        AnalysisError: the file does not describe a tail that assembles, or describes another
+            mechanism than the recording's.
+    """
     if config is None:
         chosen = mechanism or str(MECHANISM.default)
         try:
@@ -153,6 +155,9 @@ def tolerances_from(values: Mapping[str, object]) -> tuple[SymmetryTolerances, f
     """Monitor tolerances, hysteresis and gap reset from a parameter file's values.
 
     Each value is checked as the monitor checks its parameter; those not given are its defaults.
+
+    Raises:
+        AnalysisError: a value the monitor would refuse.
     """
     try:
         chosen = {
@@ -174,6 +179,9 @@ def recompute(tail: Tail, recording: Recording) -> LinkageState:
     """The engine's state for the recording's carrier inputs and pivot shifts.
 
     One vectorised call per distinct recorded pivot shift (one in all for an unshifted tail).
+
+    Raises:
+        AnalysisError: the engine cannot solve a recorded input (e.g. an infeasible pivot shift).
     """
     angle, velocity = recording.carrier_angle, recording.carrier_velocity
     shifts = recording.pivot_shift_m
@@ -220,9 +228,9 @@ def beat_table(
 ) -> list[JudgedBeat]:
     """Per-beat statistics and verdicts; a gap longer than ``gap_reset_s`` restarts the beat.
 
-    Same code path as the monitor: :func:`beats_of` (its :class:`BeatTracker`, gap detection
-    and reset) and :func:`judge`, weighted by the carrier angle when it is given, as the monitor
-    does. A beat with a shorter gap is NOT_JUDGED.
+    The monitor's own :func:`beats_of` and :func:`judge` (weighted by the carrier angle when it
+    is given), so that a recording is judged as the monitor judged it. A beat with a shorter gap is
+    NOT_JUDGED.
     """
     judged = []
     for beat in beats_of(stamp_s, theta3, hysteresis_rad, carrier_rad, gap_reset_s):
@@ -298,6 +306,9 @@ def analyse(
     """Read, recompute, tabulate the beats and write the figures.
 
     ``overrides`` replace values of the parameter file (e.g. the swimming parameters).
+
+    Raises:
+        AnalysisError: unusable input, geometry or tolerances, or figures that cannot be written.
     """
     recording = read_recording(path, namespace)
     geometry, geometry_source, values = choose_geometry(

@@ -26,7 +26,11 @@ def write_figures(
     tail: Tail,
     output_dir: str | Path | None,
 ) -> list[Path]:
-    """theta3 and its rate against time, the tip path, and theta3 with the fin joint's angle."""
+    """theta3 and its rate against time, the tip path, and theta3 with the fin joint's angle.
+
+    Raises:
+        AnalysisError: the directory cannot be created or a figure cannot be written.
+    """
     directory = Path(output_dir) if output_dir is not None else default_output_dir(recording.source)
     try:
         directory.mkdir(parents=True, exist_ok=True)

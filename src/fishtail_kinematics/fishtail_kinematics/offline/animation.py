@@ -1,16 +1,9 @@
 """One carrier revolution of either mechanism as an animated GIF (the report's animated plot).
 
-Frame k shows the linkage at carrier angle phi_k = 2 pi k / N: the ring gear and its two
-diameters, the planet with its carrier crank and the diameter whose ends slide on them, the
-Cardan point, every link and joint, and the tip's trail so far over its whole path. The joint
-positions are the tail's :meth:`~fishtail_kinematics.engine.mechanisms.Tail.link_points` of the
-engine's solution, so the picture is exactly what the engine computes.
-
-matplotlib (Agg) draws the still parts (axes, ring, guides, tip path, legend) once and blits the
-moving parts onto a copy of that background for each frame; Pillow writes the frames as a looping
-GIF, with the same call matplotlib's ``PillowWriter`` makes. (``FuncAnimation.save`` with
-``PillowWriter`` redraws the whole figure, tick labels and legend included, twice a frame: about
-0.2 s a frame here against about 0.01 s blitted.)
+``fishtail-kinematics animate``. The joints are the engine's own
+:meth:`~fishtail_kinematics.engine.mechanisms.Tail.link_points`, so the picture is exactly what
+the engine computes; the still parts are drawn once and the moving ones blitted onto them. What a
+frame shows and what it costs: docs/visualisation.md ("Animated cycle (GIF)").
 """
 
 from __future__ import annotations
@@ -46,7 +39,12 @@ def animate_cycle(
     title: str = "",
     dpi: int = 90,
 ) -> Path:
-    """Write one carrier revolution of ``tail`` as a GIF of ``frames`` frames at ``fps``."""
+    """Write one carrier revolution of ``tail`` as a GIF of ``frames`` frames at ``fps``.
+
+    Raises:
+        ValueError: ``frames`` outside [2, MAX_FRAMES] or ``fps`` outside (0, MAX_FPS].
+        OSError: the GIF cannot be written.
+    """
     if not 2 <= frames <= MAX_FRAMES:
         raise ValueError(f"frames must be between 2 and {MAX_FRAMES}, got {frames}")
     if not (math.isfinite(fps) and 0.0 < fps <= MAX_FPS):

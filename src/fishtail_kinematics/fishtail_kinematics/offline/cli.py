@@ -96,7 +96,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def geometry_from_arguments(arguments: argparse.Namespace) -> Geometry:
-    """Merge --config and flags into a validated geometry."""
+    """Merge --config and flags into a validated geometry.
+
+    Raises:
+        ParameterFileError: ``--config`` cannot be read.
+        FishtailKinematicsError: a bad parameter value or a geometry that does not assemble.
+    """
     values: dict[str, object] = {}
     if arguments.config is not None:
         values.update(geometry_parameters_in(load_parameter_file(arguments.config)))
@@ -127,7 +132,12 @@ def run_table(arguments: argparse.Namespace, out: TextIO) -> None:
 
 
 def run_plot(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Write the report's figures for this geometry."""
+    """Write the report's figures for this geometry.
+
+    Raises:
+        UsageError: a speed that is not positive, or an output directory that cannot be created.
+        ParameterFileError, FishtailKinematicsError: as :func:`geometry_from_arguments`.
+    """
     if arguments.speed <= 0.0:
         raise UsageError("plot needs a positive --speed for its time axis")
     geometry = geometry_from_arguments(arguments)
@@ -218,7 +228,12 @@ def run_pivot(arguments: argparse.Namespace, out: TextIO) -> None:
 
 
 def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Write one carrier revolution as an animated GIF and print its path."""
+    """Write one carrier revolution as an animated GIF and print its path.
+
+    Raises:
+        UsageError: an output that is not a .gif in an existing directory, or cannot be written.
+        ParameterFileError, FishtailKinematicsError: as :func:`geometry_from_arguments`.
+    """
     path = arguments.gif_path
     if path.suffix.lower() != ".gif":
         raise UsageError(f"--output must name a .gif file, got {path}")

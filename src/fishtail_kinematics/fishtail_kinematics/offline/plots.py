@@ -106,7 +106,11 @@ def plot_fin_angles(
 
 
 def cycle_time(motor_angle_rad: np.ndarray, speed_rad_s: float) -> np.ndarray:
-    """Time of each carrier angle at constant speed, for plots of computed cycles."""
+    """Time of each carrier angle at constant speed, for plots of computed cycles.
+
+    Raises:
+        ValueError: a speed that is not positive and finite.
+    """
     if not (math.isfinite(speed_rad_s) and speed_rad_s > 0.0):
         raise ValueError(f"speed must be positive and finite for a time axis, got {speed_rad_s!r}")
     return np.asarray(motor_angle_rad) / speed_rad_s

@@ -1,11 +1,8 @@
 """A recording as arrays: a rosbag2 bag (MCAP or sqlite3) or the CSV of the CLI's table.
 
-Which carrier angle: ``motor/joint_state`` (the driver's encoder sample) for every ``tail/state``
-with the same stamp, else the ``motor_angle`` that ``tail/state`` itself carries (the kinematics
-node's input). A bag with ``motor/joint_state`` only is analysed from the recomputed tail.
-
-Every problem with the input (missing, damaged, truncated, empty or foreign bag, bad CSV) raises
-:class:`AnalysisError` with a one-line message.
+The carrier angle is ``motor/joint_state``'s where its stamp matches a ``tail/state``, else the
+one ``tail/state`` carries (docs/recording.md, "fishtail-analyse"). Every problem with the input
+raises :class:`AnalysisError` with a one-line message.
 """
 
 from __future__ import annotations
@@ -78,7 +75,11 @@ class Recording:
 
 
 def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
-    """Read a rosbag2 bag (directory, .mcap or .db3) or a CSV of ``fishtail-kinematics table``."""
+    """Read a rosbag2 bag (directory, .mcap or .db3) or a CSV of ``fishtail-kinematics table``.
+
+    Raises:
+        AnalysisError: the input is missing, unreadable or not a usable recording.
+    """
     path = Path(path)
     if not path.exists():
         raise AnalysisError(f"{path}: no such file or directory")
@@ -98,7 +99,11 @@ def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
 
 
 def read_bag(path: Path, namespace: str | None = None) -> Recording:
-    """Read tail/state, motor/joint_state and tail/symmetry from a rosbag2 bag."""
+    """Read tail/state, motor/joint_state and tail/symmetry from a rosbag2 bag.
+
+    Raises:
+        AnalysisError: a damaged or foreign bag, or one without the carrier's messages.
+    """
     with BagFile(path, error=AnalysisError) as bag:
         state_topic = bag.pick(TAIL_STATE, namespace)
         # Other JointState topics (tail/joint_states) are not the carrier.
@@ -257,7 +262,11 @@ def _state_arrays(messages: list[Any], fields: Sequence[str]) -> dict[str, Float
 
 
 def read_csv(path: Path) -> Recording:
-    """Read the CSV of ``fishtail-kinematics table`` (one carrier cycle)."""
+    """Read the CSV of ``fishtail-kinematics table`` (one carrier cycle).
+
+    Raises:
+        AnalysisError: an unreadable file, a missing column, fewer than 2 rows or a bad value.
+    """
     try:
         with open(path, encoding="utf-8", newline="") as stream:
             rows = list(csv.reader(stream))
