@@ -146,6 +146,7 @@ def test_gains_take_effect_at_the_next_frame():
     assert board.gains.ko == -50
 
 
+@pytest.mark.slow
 def test_dc_board_holds_the_speed_over_the_pty(fake_board, serial_backend, wait_until):
     """``--motor dc``: m 40 40 answered over the pty; the driver's serial path sees ~4 rad/s."""
     board = fake_board(motor="dc", **POLOLU)

@@ -150,6 +150,7 @@ def test_right_channel_and_pid_rate(fake_board, serial_backend, wait_until):
     assert board.board.firmware.encoder(0) == 0
 
 
+@pytest.mark.slow
 def test_resend_beats_the_auto_stop_and_stop_is_not_resent(fake_board, serial_backend, wait_until):
     """Motion lasts beyond the board's 2 s auto-stop; after stop() only one m 0 0 is sent."""
     board = fake_board()
@@ -175,6 +176,7 @@ def test_resend_beats_the_auto_stop_and_stop_is_not_resent(fake_board, serial_ba
     assert firmware.motors[0].target_rad_s == 0.0
 
 
+@pytest.mark.slow
 def test_resends_stop_when_set_speed_goes_stale(fake_board, serial_backend, wait_until):
     """command_hold_s: re-sent while set_speed() keeps coming; once it stops, the board stops.
 

@@ -71,6 +71,7 @@ def follower():
         item.stop()
 
 
+@pytest.mark.slow
 def test_the_firmware_target_follows_the_angle_at_most_once_a_frame(
     fake_board, serial_backend, follower, wait_until
 ):

@@ -68,6 +68,7 @@ def collect_readings(backend, board, seconds: float, wait_until) -> list:
     return readings
 
 
+@pytest.mark.slow
 def test_the_speed_is_held(either_board, serial_backend, wait_until):
     """The serial backend at 40 ticks per frame: the carrier turns at that speed, board time."""
     board = either_board()
@@ -105,6 +106,7 @@ def test_the_angle_is_continuous_across_the_32_bit_wrap(either_board, serial_bac
     assert readings[-1].angle_rad > 1.5 * 1500 * count_rad  # well past the wrap
 
 
+@pytest.mark.slow
 def test_the_board_stops_itself_2_s_after_the_last_m(either_board, raw_port):
     """``m 40 40`` once: turning until 2 s after it (board time), stopped after."""
     board = either_board()

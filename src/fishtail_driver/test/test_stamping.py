@@ -93,6 +93,7 @@ def test_bad_use_is_refused():
         mapping.observe(10, 0, 5)
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(
     gaps=st.lists(st.integers(MS, 50 * MS), min_size=2, max_size=200),

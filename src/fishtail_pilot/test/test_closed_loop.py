@@ -20,6 +20,9 @@ from fishtail_pilot.steering import steering_from_values
 from fishtail_plant.values import fish_from_values, tail_from_values
 from fishtail_testkit.closed_loop import LoopRun, fly
 
+#: Each closed-loop flight takes 2-5 s (make check leaves them to make test).
+pytestmark = pytest.mark.slow
+
 SAMPLE_RATE_HZ = 200.0
 MECHANISMS = ("oscillatory", "undulatory")
 
