@@ -6,8 +6,8 @@
   ``fishtail-fake-board`` runs), its pty path read from its stdout; killed at teardown.
 * ``serial_backend(port, opener=None, **config)``: a started :class:`SerialBackend`; closed at
   teardown.
-* ``firmware_build``: the real firmware and its simulator (``make firmware``, run by set-up);
-  skips with one line where the AVR toolchain or simavr is missing.
+* ``firmware_build``: the real firmware and its simulator, built by ``make test``'s set-up
+  (tools/test-firmware.sh); skips with one line saying why where they are not built.
 * ``either_board(encoder_offset=0)``: parametrised over the two boards, ``fake`` (the project's
   emulation, a DC motor) and ``firmware`` (ROSArduinoBridge in simavr, the same DC motor), both
   the Pololu 37D 30:1 with its 64-count encoder: a :class:`BoardUnderTest` (link, reset, the board's
@@ -36,7 +36,6 @@ import pytest
 
 from fishtail_boards.avr_board import (
     SimulatedBoard,
-    built_artifacts,
     encoder_offset_pokes,
     firmware_variables,
 )
@@ -53,6 +52,7 @@ from fishtail_testkit.driver_nodes import (  # noqa: F401 - fixtures, registered
     ros_probe,
     wait_until,
 )
+from fishtail_testkit.firmware import built_firmware_or_skip
 
 POLL_S = 0.005
 
@@ -183,24 +183,14 @@ def serial_backend() -> Callable[..., SerialBackend]:
 # --------------------------------------------------------------------------------------------
 # Two boards: the fake board and the real firmware in simavr
 
-ROOT = Path(__file__).resolve().parents[3]
 #: The Pololu 37D 30:1 with its 64-count encoder, on both boards.
 POLOLU = {"counts_per_revolution": 64, "gear_ratio": 30.0}
 
 
 @pytest.fixture(scope="session")
 def firmware_build() -> Path:
-    """build/firmware with the firmware ELF and the simulator, built now; skip without toolchain."""
-    build = subprocess.run(
-        [str(ROOT / "firmware" / "build.sh")], capture_output=True, text=True, check=False
-    )
-    if build.returncode in (2, 3):  # no toolchain / no sketch: the reason is the first line
-        reason = (build.stderr.strip().splitlines() or ["no output"])[0]
-        pytest.skip(f"firmware in simavr: {reason}")
-    assert build.returncode == 0, f"make firmware failed:\n{build.stdout}{build.stderr}"
-    folder = ROOT / "build" / "firmware"
-    assert built_artifacts(folder) is not None, "make firmware left no ELF or simulator"
-    return folder
+    """build/firmware with the firmware ELF and the simulator, built by set-up; else skip."""
+    return built_firmware_or_skip()
 
 
 class BoardUnderTest:
@@ -308,7 +298,9 @@ def _dc_motors(count: int) -> list[DcChannelMotor]:
     return [DcChannelMotor(parameters, scale) for _ in range(count)]
 
 
-@pytest.fixture(params=["fake", "firmware"])
+# The firmware board is a simulator process, so its tests are integration tests (conftest.py at the
+# root marks the fixtures' users; this one is reached through getfixturevalue).
+@pytest.fixture(params=["fake", pytest.param("firmware", marks=pytest.mark.integration)])
 def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]:
     """``either_board(encoder_offset=0)``: the fake board, or the real firmware in simavr."""
     started: list[BoardUnderTest] = []

@@ -1,10 +1,11 @@
 """The real ROSArduinoBridge firmware in simavr (``make firmware``), alone and with its motors.
 
-These tests build the firmware and the simulator (firmware/build.sh, the ``firmware_build``
-fixture) when the AVR toolchain and simavr are installed (tools/test-system-packages.sh installs
-them as root) and skip otherwise. Nothing here is timed on the host's clock: the firmware's
-behaviour is read per simulated millisecond. The serial path's behaviours against the firmware
-(speed held, wrap, auto-stop, reset, stop) are in test_two_boards.py, beside the fake board's.
+These tests run the firmware and the simulator that ``make test`` builds before pytest
+(tools/test-firmware.sh; the ``firmware_build`` fixture) where the AVR toolchain and simavr are
+installed (tools/test-system-packages.sh installs them as root), and skip, saying why,
+otherwise. Nothing here is timed on the host's clock: the firmware's behaviour is read per
+simulated millisecond. The serial path's behaviours against the firmware (speed held, wrap,
+auto-stop, reset, stop) are in test_two_boards.py, beside the fake board's.
 """
 
 from __future__ import annotations
