@@ -9,14 +9,22 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
 import fishtail_bringup.console
+from fishtail_testkit.console_runs import run_until
+from fishtail_testkit.firmware import built_firmware_or_skip
 
 RUN_TIMEOUT_S = 60.0
 RUN = [sys.executable, "-m", "fishtail_bringup.run"]
+#: The console's line once a beat was judged symmetric.
+SYMMETRIC = " OK: symmetric"
+
+
+def up(output: str, *nodes: str) -> bool:
+    """Whether fishtail-run said each of ``nodes`` is up."""
+    return all(f"{node} up" in output for node in nodes)
 
 
 @pytest.fixture(params=["separate processes", "one process"])
@@ -30,16 +38,14 @@ def test_console_doctests():
     assert result.attempted > 0 and result.failed == 0
 
 
-def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain, run):
-    # 12 rad/s gives a beat every 0.52 s, so 6 s is several beats even with slow discovery.
-    completed = subprocess.run(
-        [*run, "--speed", "12", "--duration", "6"],
-        env=os.environ.copy(),
-        capture_output=True,
-        text=True,
-        timeout=RUN_TIMEOUT_S,
+def test_a_run_shows_beats_and_a_symmetric_verdict(ros_domain, run):
+    # 12 rad/s gives a beat every 0.52 s; Ctrl-C once a beat was judged, however long that took.
+    completed = run_until(
+        [*run, "--speed", "12"],
+        lambda out: up(out, "driver", "kinematics", "monitor") and SYMMETRIC in out,
+        RUN_TIMEOUT_S,
     )
-    output = completed.stdout + completed.stderr
+    output = completed.output
     assert completed.returncode == 0, output
     assert "driver up" in output and "kinematics up" in output and "monitor up" in output
     # The swing is judged symmetric, and never asymmetric. A beat with a gap in its input (a
@@ -47,6 +53,22 @@ def test_bounded_run_shows_beats_and_a_symmetric_verdict(ros_domain, run):
     assert " OK: symmetric" in output, output
     assert not re.search(r"beat \d+ (WARN|ERROR):", output), output
     assert "motor commanded to stop" in output
+
+
+def test_duration_ends_the_run_by_itself(ros_domain):
+    """``--duration``: the run stops by itself, the motor commanded to stop, every node ends well.
+
+    One layout, and short: just longer than the nodes take to start on a loaded machine.
+    """
+    completed = subprocess.run(
+        [*RUN, "--speed", "12", "--duration", "4"],
+        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+    )  # fmt: skip
+    output = completed.stdout + completed.stderr
+    assert completed.returncode == 0, output
+    assert "at 12 rad/s for 4 s" in output, output
+    assert "motor commanded to stop" in output and "fishtail-run: last state" in output, output
+    assert "non-zero status" not in output and "killed" not in output, output
 
 
 def test_sigint_stops_every_node(ros_domain, run):
@@ -76,12 +98,12 @@ def test_sigint_stops_every_node(ros_domain, run):
 def test_a_subset_of_nodes_on_this_computer(ros_domain, start_node, run):
     """The shore half: kinematics and monitor only, following a driver started elsewhere."""
     driver = start_node("driver", params={"cmd_timeout_sec": 0.5})
-    completed = subprocess.run(
-        [*run, "--nodes", "kinematics,monitor",
-         "--speed", "12", "--duration", "6"],
-        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
-    )  # fmt: skip
-    output = completed.stdout + completed.stderr
+    completed = run_until(
+        [*run, "--nodes", "kinematics,monitor", "--speed", "12"],
+        lambda out: up(out, "kinematics", "monitor") and SYMMETRIC in out,
+        RUN_TIMEOUT_S,
+    )
+    output = completed.output
     assert completed.returncode == 0, output
     assert "kinematics up" in output and "monitor up" in output
     assert "driver up" not in output  # the driver is the other process's
@@ -101,7 +123,8 @@ def test_no_command_leaves_the_motor_to_another_computer(ros_domain, ros, run):
         env=os.environ.copy(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
     try:
-        ros.wait_for_subscribers("motor/cmd_speed", count=1)  # the driver's
+        # The probe's own recorder and the driver's: only then is the driver up.
+        ros.wait_for_subscribers("motor/cmd_speed", count=2)
         ros.spin_for(1.0)  # ten command periods
         assert len(commands) == 0
         assert ros.node.count_publishers("motor/cmd_speed") == 0
@@ -123,12 +146,12 @@ def test_unknown_node_name_is_a_one_line_error():
 
 def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain, run):
     """``--motor dc --load water_swimming``: the motor turns the tail in water; the line says so."""
-    completed = subprocess.run(
-        [*run, "--motor", "dc", "--load",
-         "water_swimming", "--speed", "12", "--duration", "8"],
-        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
-    )  # fmt: skip
-    output = completed.stdout + completed.stderr
+    completed = run_until(
+        [*run, "--motor", "dc", "--load", "water_swimming", "--speed", "12"],
+        lambda out: any(" N m, " in line and SYMMETRIC in line for line in out.splitlines()),
+        RUN_TIMEOUT_S,
+    )
+    output = completed.output
     assert completed.returncode == 0, output
     assert "motor turning the oscillatory tail (water_swimming)" in output
     lines = [line for line in output.splitlines() if " N m, " in line]
@@ -139,20 +162,18 @@ def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain, run):
 def test_the_suite_runs_on_the_firmware_in_simavr(ros_domain):
     """``--firmware``: the driver on ROSArduinoBridge in simavr; the carrier turns, all stop.
 
-    One layout only (the simulator alone needs most of a core). Skips where the AVR toolchain
-    is missing (make firmware says why).
+    One layout only (the simulator alone needs most of a core). Skips where set-up could not
+    build the firmware (saying why).
     """
-    root = Path(__file__).resolve().parents[1]
-    build = subprocess.run([str(root / "firmware" / "build.sh")], capture_output=True,
-                           text=True, check=False)  # fmt: skip
-    if build.returncode in (2, 3):  # no toolchain / no sketch: the reason is the first line
-        pytest.skip(f"firmware in simavr: {(build.stderr.strip().splitlines() or [''])[0]}")
-    assert build.returncode == 0, build.stdout + build.stderr
-    completed = subprocess.run(
-        [*RUN, "--firmware", "--speed", "8", "--duration", "8"],
-        env=os.environ.copy(), capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
-    )  # fmt: skip
-    output = completed.stdout + completed.stderr
+    built_firmware_or_skip()
+
+    def turned(out: str) -> bool:
+        carriers = [float(m) for m in re.findall(r"carrier +([0-9.]+) rad", out)]
+        on_the_board = "[board] /dev/" in out and up(out, "driver", "kinematics", "monitor")
+        return on_the_board and bool(carriers) and carriers[-1] > 5.0
+
+    completed = run_until([*RUN, "--firmware", "--speed", "8"], turned, RUN_TIMEOUT_S)
+    output = completed.output
     assert completed.returncode == 0, output
     assert "on the firmware in simavr" in output and "[board] /dev/" in output, output
     assert "driver up: backend serial" in output, output

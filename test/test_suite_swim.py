@@ -10,9 +10,7 @@ library's cycle-average steady speed, and the heading against the straight line 
 from __future__ import annotations
 
 import math
-import os
 import re
-import subprocess
 import sys
 
 import numpy as np
@@ -33,6 +31,7 @@ from fishtail_plant.fish.fish import FISH_PARAMETERS_BY_NAME, FishParameters
 from fishtail_plant.fish.follower import SwimFollower
 from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_plant.values import read_fish_values
+from fishtail_testkit.console_runs import run_until
 
 SIM_MODULE = "fishtail_swim.nodes.sim_node"
 #: Fast, to get beats quickly (the driver's limit is 20 rad/s).
@@ -192,23 +191,19 @@ def test_negative_body_mass_exits_with_status_2(start_node, params_file):
 
 def test_fishtail_run_swim_shows_the_fish_swimming(ros_domain):
     """``fishtail-run --swim`` starts the simulator too; its last line has the fish moving."""
-    completed = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "fishtail_bringup.run",
-            "--swim",
-            "--speed",
-            "12",
-            "--duration",
-            "6",
-        ],
-        env=os.environ.copy(),
-        capture_output=True,
-        text=True,
-        timeout=RUN_TIMEOUT_S,
+
+    def swimming(output: str) -> bool:
+        speeds = [float(m) for m in re.findall(r"fish (\S+) m/s heading", output)]
+        nodes = ("driver up", "kinematics up", "monitor up", "swimming simulator up")
+        return all(up in output for up in nodes) and bool(speeds) and speeds[-1] > 0.0
+
+    # Ctrl-C once the console shows the fish moving; the last state comes after that.
+    completed = run_until(
+        [sys.executable, "-m", "fishtail_bringup.run", "--swim", "--speed", "12"],
+        swimming,
+        RUN_TIMEOUT_S,
     )
-    output = completed.stdout + completed.stderr
+    output = completed.output
     assert completed.returncode == 0, output
     assert "swimming simulator up" in output, output
     last = next(line for line in output.splitlines() if line.startswith("fishtail-run: last state"))

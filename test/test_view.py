@@ -29,6 +29,7 @@ from fishtail_common.bag_types import suite_typestore
 from fishtail_common.interface import (
     FISH_ODOM,
     GOAL_POSE,
+    SUITE_NODES,
     TAIL_MARKERS,
     TAIL_STATE,
     TAIL_SYMMETRY,
@@ -36,6 +37,7 @@ from fishtail_common.interface import (
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail
 from fishtail_msgs.msg import TailState
+from fishtail_testkit.console_runs import run_until
 
 #: The client saves a stream, whose .rrd has no footer until it ends; reading it early is fine.
 pytestmark = pytest.mark.filterwarnings("ignore:RRD file has no footer")
@@ -50,6 +52,8 @@ RERUN_SETTINGS = ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "XDG_CACHE_HOME")
 #: The tail link's colour (engine.markers.TAIL_COLOUR) and the drive links' (LINK_COLOUR), 0-255.
 TAIL_LINK_RGB = (51, 204, 102)
 LINK_RGB = (64, 140, 242)
+#: The nodes fishtail-run starts by default, each of which says "<name> up".
+SUITE_NODE_NAMES = tuple(node.name for node in SUITE_NODES)
 
 
 @pytest.fixture
@@ -417,11 +421,14 @@ def test_a_bag_replays_at_its_pace_to_a_client(ros, start_process, rerun_setting
 
 
 def test_fishtail_run_view_starts_the_view_and_says_where_to_look(ros_domain, rerun_settings):
-    completed = subprocess.run(
-        [sys.executable, "-m", "fishtail_bringup.run", "--view", "--speed", "8", "--duration", "6"],
-        env=os.environ.copy(), capture_output=True, text=True, timeout=60,
-    )  # fmt: skip
-    output = completed.stdout + completed.stderr
+    where = "[view] fishtail-view: live view at http://127.0.0.1:"
+    # Ctrl-C once the view says where to look and the suite's nodes are up.
+    completed = run_until(
+        [sys.executable, "-m", "fishtail_bringup.run", "--view", "--speed", "8"],
+        lambda out: where in out and all(f"{n} up" in out for n in SUITE_NODE_NAMES),
+        timeout_s=60.0,
+    )
+    output = completed.output
     assert completed.returncode == 0, output
-    assert "[view] fishtail-view: live view at http://127.0.0.1:" in output, output
+    assert where in output, output
     assert "non-zero status" not in output and "exited early" not in output
