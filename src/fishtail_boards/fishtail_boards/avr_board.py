@@ -1,20 +1,12 @@
 """The real ROSArduinoBridge firmware in simavr, its motors the DC motor: ``fishtail-avr-board``.
 
-``make firmware`` builds the firmware for an Arduino Nano (ATmega328P, L298N driver, encoders on
-the Arduino's pins) and ``avr_board``, a small C program on libsimavr that runs it at 16 MHz paced
-to wall-clock time with its UART on a pty (``firmware/avr_board.c``). This command starts that
-program in lockstep mode and is its motors: every millisecond of simulated time the simulator
-writes ``D <microseconds> <left PWM> <right PWM>`` (what the firmware drives on the L298 inputs,
--255..255) and this side answers ``<left count> <right count>``, each channel's motor-shaft
-encoder count after the motor (:class:`fishtail_boards.board_motors.DcChannelMotor`, the DC gear
-motor the simulated backend and ``fishtail-fake-board --motor dc`` run, at duty PWM / 255,
-optionally turning the tail: ``--load``) moved on by that millisecond. The simulator toggles the
-firmware's encoder pins in quadrature to reach those counts.
-
-Like ``fishtail-fake-board`` it prints the pty's path on stdout and keeps a symlink at ``--link``;
-``--encoder-offset`` starts the firmware's counts there (the 32-bit wrap), SIGUSR1 resets the board
-(DTR). :class:`SimulatedBoard` runs the same in a thread of the caller, which then reads the
-simulated clock and the firmware's variables per millisecond (the tests, the benchmarks).
+To check a host against the firmware itself rather than our emulation of it: this command runs
+``make firmware``'s simulator of an Arduino Nano in lockstep and is its motors, answering each
+simulated millisecond's PWM with the encoder counts of a
+:class:`~fishtail_boards.board_motors.DcChannelMotor` (optionally turning the tail). It keeps a
+pty link like ``fishtail-fake-board``; :class:`SimulatedBoard` runs the same in a thread of the
+caller. Build, options, the lockstep protocol and its limits: docs/serial.md ("The real firmware
+in a simulator").
 """
 
 from __future__ import annotations
@@ -122,7 +114,11 @@ class MotorSide:
         self.now_us = 0
 
     def exchange(self, line: str) -> str:
-        """The answer to one ``D <us> <left PWM> <right PWM> [watched...]`` line (ValueError)."""
+        """The answer to one ``D <us> <left PWM> <right PWM> [watched...]`` line.
+
+        Raises:
+            ValueError: a line that is not such a line.
+        """
         fields = line.split()
         if len(fields) < 4 or fields[0] != "D":
             raise ValueError(f"unexpected line from the simulator: {line!r}")
@@ -160,7 +156,11 @@ def run_motor_side(
 def simulator_command(
     build_dir: Path | None, link: Path | str | None, fast: bool, extra: Sequence[str] = ()
 ) -> list[str]:
-    """The simulator's command line in lockstep mode (FileNotFoundError if not built)."""
+    """The simulator's command line in lockstep mode.
+
+    Raises:
+        FileNotFoundError: the firmware or the simulator is not built (``make firmware``).
+    """
     artifacts = built_artifacts(build_dir)
     if artifacts is None:
         folder = build_dir or default_build_dir()

@@ -1,29 +1,12 @@
 r"""The emulated ROSArduinoBridge firmware: parses commands, answers them, moves the motors.
 
-Pure (no pty, no threads): time is passed in explicitly (seconds, any epoch). The emulation follows
-the firmware's source (hbrobotics/ros_arduino_bridge ``ROSArduinoBridge.ino`` and
-``diff_controller.h``; ``o`` and the ``b`` reply without a leading space with
-``variant="joshnewans"``):
-
-- byte-by-byte command parsing: only CR runs a command; LF is an ordinary byte; the first space
-  starts argument 1, the second argument 2, later spaces are skipped; arguments go through a
-  16-bit ``atoi`` (``1.9`` -> 1, junk -> 0, 40000 -> -25536); argument buffers hold
-  ``arg_buffer_bytes`` - 1 characters (an overflow, undefined behaviour on the board, is cut off
-  and reported through ``warn``);
-- the speed loop is :class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` (the firmware's
-  ``diff_controller.h`` in AVR integer arithmetic) on the frame grid of
-  :class:`~fishtail_plant.motor.speed_loop.FrameTimer` (every ``1000 // PID_RATE`` ms): ``m``
-  targets are ticks per frame, taken over at the next frame; ``m 0 0`` writes PWM 0 at once and
-  resets and stops the loop; ``r`` zeroes the encoders and resets the loop (targets 0); ``o``
-  resets and stops it and writes the PWM; the auto-stop, strictly more than 2000 ms after the
-  last ``m``/``o``, writes PWM 0 and stops the loop without a reset, so that the next frame's
-  stopped-loop test resets it if a channel was moving; ``u`` sets the gains (four of them, Ko
-  not 0: anything else is refused, see :meth:`Firmware._update_gains`);
-- every PWM the board writes drives the channel's motor (:mod:`fishtail_boards.board_motors`:
-  ``ideal``, the first-order lag following the loop's target; ``first-order``, the lag driven by
-  the PWM; ``dc``, the DC gear motor at duty PWM / 255, turning ``load`` on both channels), and
-  the frames are recorded in :attr:`Firmware.frames`;
-- encoder counts are signed 32-bit and wrap (``encoder_offset`` starts them near the wrap).
+Our reading of the firmware's source (hbrobotics ``ROSArduinoBridge.ino`` and
+``diff_controller.h``; the joshnewans variant's ``o`` and ``b`` reply), quirks included: byte-wise
+parsing that only CR runs, a 16-bit ``atoi``, short argument buffers, the speed loop of
+:class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` on its frame grid, the auto-stop and
+wrapping 32-bit counts; every PWM it writes drives a motor of :mod:`fishtail_boards.board_motors`.
+Pure (no pty, no threads; time is passed in), so that tests can drive it exactly. What it
+emulates and where it was corrected: docs/serial.md ("The emulated board").
 
 >>> board = Firmware(FirmwareConfig(), now=0.0)
 >>> [board.execute(command, 0.0) for command in map(board.feed_byte, b"b\r") if command]
@@ -64,7 +47,12 @@ def atoi16(text: bytes) -> int:
 
 @dataclasses.dataclass
 class FirmwareConfig:
-    """What the emulated board is: its firmware's settings, its encoders and motors."""
+    """What the emulated board is: its firmware's settings, its encoders and motors.
+
+    Raises:
+        ValueError: an unknown variant or motor, a load on a motor other than dc, a baud rate or
+            argument buffer too small, or an encoder offset beyond 32 bits.
+    """
 
     baud: int = 57600
     variant: str = "hbrobotics"
@@ -298,12 +286,9 @@ class Firmware:
     def _update_gains(self, argument: bytes) -> bytes:
         """``u Kp:Kd:Ki:Ko``: exactly four gains, Ko not 0; anything else is refused.
 
-        The firmware splits the argument at colons (``strtok_r``: empty fields vanish) into a local
-        ``int pid_args[4]`` and answers ``OK`` whatever it got: fewer than four gains leave the
-        rest uninitialised stack bytes, more overflow the array, and Ko 0 divides by zero at every
-        frame (no trap on the AVR: a garbage PWM). Emulating garbage would hide the host's mistake
-        behind an ``OK``, so the emulation keeps the gains, reports the reason through ``warn``
-        and answers ``Invalid Command`` instead: a host sending such gains is wrong on any board.
+        The board answers ``OK`` and drives a garbage PWM; the emulation keeps the gains, warns
+        and answers ``Invalid Command``, so that a host sending such gains fails its tests
+        (docs/serial.md). Fields are split at colons as ``strtok_r`` does: empty ones vanish.
         """
         tokens = [token for token in argument.split(b":") if token]
         reason = None

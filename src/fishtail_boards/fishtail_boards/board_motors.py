@@ -1,28 +1,12 @@
 """The motors on the emulated board's two channels: what the PWM set by its firmware moves.
 
-The emulated firmware (:mod:`fishtail_boards.board_firmware`) runs the board's speed loop
-(:class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop`) and hands the motor of each channel
-what the board's ``setMotorSpeeds()`` writes, whenever it writes it: at every PID frame, at
-``m 0 0``, ``o``, the auto-stop and power-on. Three motors (``fishtail-fake-board --motor``):
-
-- ``ideal`` (:class:`IdealMotor`, the default): the first-order speed lag of
-  :class:`fishtail_plant.motor.first_order.SimulatedMotor`, commanded at each running frame to the
-  loop's *target* (ticks per frame as a speed): the board's PID taken as ideal up to that lag.
-  While the loop is stopped it follows the PWM (``o``: PWM / 255 of ``max_speed_rad_s``; 0 after
-  ``m 0 0`` and the auto-stop). The motor reaches the commanded speed exactly, without the loop's
-  dead band or ripple: what the serial tests that check speeds and angles rely on.
-- ``first-order`` (:class:`PwmFirstOrderMotor`): the same lag driven by the PWM at every write.
-  A first-order lag has no voltage, so the PWM is mapped to its target as the board sees it: a
-  linear, load-free motor whose full duty gives ``max_speed_rad_s``. The loop settles within its
-  dead band of the target.
-- ``dc`` (:class:`DcChannelMotor`): the DC gear motor of :mod:`fishtail_plant.motor.dc_motor` (the
-  Pololu 37D defaults) with the gearbox ratio of the board's encoder scale, at duty PWM / 255,
-  unloaded or turning a load (``load``, ``load_inertia``: the tail, ``fishtail-fake-board
-  --load``): the speed ripple of the loop's integer arithmetic and of the load, as the simulated
-  backend's :class:`fishtail_plant.motor.pid_dc_motor.PidDrivenDcMotor` shows it. The other
-  motors feel no load.
-
-The encoder counts on the motor shaft, floored as a counter sees it (the firmware wraps them).
+Each channel's motor gets what the emulated firmware's ``setMotorSpeeds()`` writes, whenever it
+writes it, and counts its encoder on the motor shaft. Three motors (``fishtail-fake-board
+--motor``), from the exact speeds the serial tests check to the loop's real ripple:
+:class:`IdealMotor` (the default; the first-order lag following the loop's target),
+:class:`PwmFirstOrderMotor` (that lag driven by the PWM) and :class:`DcChannelMotor` (the DC gear
+motor at duty PWM / 255, optionally turning the tail). What each shows: docs/serial.md ("The
+emulated board").
 """
 
 from __future__ import annotations
@@ -139,6 +123,9 @@ def make_motor(
     """One channel's motor of ``kind`` (see :data:`MOTOR_KINDS`) for an encoder of ``scale``.
 
     ``load`` and ``load_inertia`` are what the ``dc`` motor turns (ignored by the others).
+
+    Raises:
+        ValueError: an unknown ``kind``, or a time constant or top speed the lag refuses.
     """
     if kind == "dc":
         # The Pololu 37D's armature and friction behind the gearbox the encoder scale says.

@@ -1,10 +1,9 @@
 """The emulated board on a pseudo-terminal, with fault injection: what ``fishtail-fake-board`` runs.
 
-:class:`FakeBoard` serves :class:`fishtail_boards.board_firmware.Firmware` on a pty: bytes arrive
-and leave at the line rate when ``pace_baud`` is set (a pty otherwise transfers at memory speed
-whatever the baud rate), the board can be unplugged and replugged (a new pty, the link symlink
-moved), reset (counts back to 0, deaf for ``boot_ms``), slowed down, and its exchanges dropped
-or corrupted (seeded by ``seed``). The switches are described in :mod:`fishtail_boards.fake_board`.
+:class:`FakeBoard` serves :class:`fishtail_boards.board_firmware.Firmware` on a pty that can be
+paced to the line rate (a pty otherwise moves bytes at memory speed), unplugged and replugged,
+reset, slowed down, and whose exchanges can be dropped or corrupted (seeded): the faults the
+serial backend must survive. The switches: docs/serial.md ("The emulated board").
 """
 
 from __future__ import annotations
@@ -29,7 +28,12 @@ GARBLE_KINDS = ("flip", "truncate", "binary", "oversized", "invalid")
 
 @dataclasses.dataclass
 class BoardConfig(FirmwareConfig):
-    """The emulated board (its firmware) and the faults the harness injects."""
+    """The emulated board (its firmware) and the faults the harness injects.
+
+    Raises:
+        ValueError: a rate outside [0, 1], a negative time, or what
+            :class:`~fishtail_boards.board_firmware.FirmwareConfig` refuses.
+    """
 
     pace_baud: bool = False
     boot_ms: float = 0.0
@@ -247,6 +251,9 @@ class FakeBoard:
         For tests that need one exact order of replies and timeouts, whatever the host's
         scheduling: the delays set when each reply leaves relative to its command (replies still
         never overtake each other).
+
+        Raises:
+            ValueError: a negative or NaN delay.
         """
         delays = [float(delay) for delay in delays_s]
         if any(not delay >= 0.0 for delay in delays):

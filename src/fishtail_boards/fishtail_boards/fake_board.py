@@ -1,34 +1,11 @@
 """An emulated ROSArduinoBridge motor board on a pseudo-terminal: ``fishtail-fake-board``.
 
-It prints the pty's device path on stdout (one line, again after every emulated replug) and, with
-``--link PATH``, keeps a symlink at PATH pointing at the current pty (replaced atomically; removed
-on exit and while "unplugged"), so a host can be configured with a stable port name, as with
-``/dev/serial/by-id`` on real hardware.
-
-The firmware's behaviour (parsing quirks, PID frames, auto-stop, wrapping counts) is
-:mod:`fishtail_boards.board_firmware`'s; the pty and the faults are
-:mod:`fishtail_boards.board_pty`'s. ``--variant joshnewans`` answers ``b`` without a leading space
-and knows ``o``; ``--motor`` chooses what the firmware's PWM drives
-(:mod:`fishtail_boards.board_motors`: ``ideal``, the default, ``first-order`` or ``dc``, the DC
-gear motor as the simulated backend runs it; with ``--counts-per-rev 64 --gear-ratio 30`` it is
-the Pololu 37D 30:1 with its encoder); with ``--motor dc``, ``--load`` makes each channel's motor
-turn the tail (:mod:`fishtail_plant.values`: ``air``, ``water_held``, ``water_swimming``, the
-driver's ``motor_load``) of ``--config`` (default config/oscillatory.yaml) and ``--fish``
-(default config/fish.yaml), so that the serial path sees the ripple the simulated backend's
-loaded motor has; an argument longer than ``--arg-buffer`` - 1 characters is reported on stderr.
-
-Fault injection (seeded by ``--seed``): ``--delay-ms`` delays every reply (a slow board; from
-``--delay-after-s`` on only, and SIGUSR2 switches the delay off and on again, so that a host can
-connect to a board that turns slow later), ``--drop-rate`` loses a command or its reply,
-``--garble-rate`` corrupts a reply (a flipped byte, a truncated line, a binary line, an oversized
-line) or the command letter (the board answers ``Invalid Command``),
-``--reset-after-s`` resets the board once (counts back to 0, silent for ``--boot-ms``), and so
-does every SIGUSR1 (a reset when the caller chooses, e.g. once the motor turns),
-``--disconnect-after-s`` unplugs the pty once for ``--disconnect-for-s`` and then plugs in a new
-one (a replug power-cycles the board). ``--pace-baud`` delays every byte by its line time at
-``--baud`` (10 bits per byte) in both directions, because a pty otherwise transfers at memory speed
-whatever the baud rate. ``--log FILE`` appends every command the board runs (one line each, time
-in seconds since start) and the injected events.
+A board to run the serial path without hardware, with the faults hardware has: it prints the
+pty's path (again after every emulated replug) and keeps ``--link`` pointing at it, as
+``/dev/serial/by-id`` does. The firmware is :mod:`fishtail_boards.board_firmware`'s, the motors
+:mod:`fishtail_boards.board_motors`' (with ``--load``, turning the tail of ``--config`` and
+``--fish``), the pty and the fault injection :mod:`fishtail_boards.board_pty`'s. Options and
+faults: docs/serial.md ("The emulated board").
 """
 
 from __future__ import annotations

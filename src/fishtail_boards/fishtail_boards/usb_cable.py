@@ -1,11 +1,9 @@
 """The Nano's USB cable for the simulated board: a pty the host opens, relayed to the UART's pty.
 
-On the real board the host's serial port is the USB-serial bridge (CH340 or FT232), not the
-ATmega's UART: pulling the cable makes the host's port vanish while the board's UART does not
-notice. :class:`UsbCable` is that bridge for the firmware in simavr: the host talks to a pty of
-its own (a stable symlink at ``link``, replaced atomically), whose bytes a thread copies to and
-from the simulator's UART pty. :meth:`unplug` closes the host's pty (its reads fail, the link is
-gone), :meth:`replug` opens a new one at the same link, as the fake board's unplug does.
+On a real board the host's port is the USB-serial bridge, so pulling the cable makes the port
+vanish while the ATmega runs on; :class:`UsbCable` is that bridge for the firmware in simavr, with
+:meth:`UsbCable.unplug` and :meth:`UsbCable.replug` at a stable link. docs/serial.md ("The real
+firmware in a simulator").
 """
 
 from __future__ import annotations
