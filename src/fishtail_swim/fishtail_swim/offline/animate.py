@@ -1,20 +1,11 @@
 """Top view of a swimming fish as an animated GIF: the hull, the tail's linkage in it, C's path.
 
-Frame k shows the fish at t_k = k / fps. Its pose (X, Y, psi) and velocity are the run's,
-interpolated linearly between the RK4 samples (16-48 a beat: far below a pixel here); the
-linkage is the engine's at the carrier angle speed * t_k (the carrier turns at constant speed
-from phi = 0, as in the run), carried from the tail frame through the body into the world by
-:mod:`fishtail_plant.fish.outline`, the geometry the simulator's RViz markers use.
-
-A recorded run (:func:`recorded_frames`, ``fishtail-swim animate --bag``) is drawn the same way
-from :class:`~fishtail_swim.offline.recorded_run.RecordedRun`: the pose, carrier angle and pivot
-shift of each frame interpolated from the bag, the linkage solved by a tail with that pivot shift
-(shifts rounded to :data:`PIVOT_SHIFT_STEP_M`, one solve per distinct shift), the goals sent so far
-as markers, the current one highlighted. Where the recording has a gap the frame's pose is NaN:
-the fish is not drawn and its path is broken.
-
-The frames are drawn and written by :mod:`fishtail_swim.offline.gif_drawing` (:func:`write_gif`,
-whether the view follows the fish: :func:`follows_fish`).
+The frames of ``fishtail-swim animate``: of a simulated run (:func:`fish_frames`), its pose
+interpolated between the RK4 samples and the linkage the engine's, or of a recorded one
+(:func:`recorded_frames`, ``--bag``, from :class:`~fishtail_swim.offline.recorded_run.RecordedRun`),
+placed as the simulator's RViz markers are (:mod:`fishtail_plant.fish.outline`). They are drawn
+and written by :mod:`fishtail_swim.offline.gif_drawing` (:func:`write_gif`, re-exported here). What
+a frame shows and what it costs: docs/swimming-dynamics.md ("Command line", ``animate``).
 """
 
 from __future__ import annotations
@@ -107,7 +98,11 @@ def fish_frames(
     carrier_speed_rad_s: float,
     frame_time_s: FloatArray,
 ) -> FishFrames:
-    """The frames at ``frame_time_s`` of one fish's run: ``time_s`` (K,) and ``state`` (K, 6)."""
+    """The frames at ``frame_time_s`` of one fish's run: ``time_s`` (K,) and ``state`` (K, 6).
+
+    Raises:
+        ValueError: frame times outside the run.
+    """
     times = np.asarray(frame_time_s, dtype=np.float64)
     if times.size and (times[0] < time_s[0] or times[-1] > time_s[-1] * (1.0 + 1e-12)):
         raise ValueError(

@@ -194,7 +194,13 @@ def _add_motor_parser(
 
 
 def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Print the balance's table; with --check, the free body's figures for three rows."""
+    """Print the balance's table; with --check, the free body's figures for three rows.
+
+    Raises:
+        UsageError, ParameterValueError, FishtailKinematicsError: bad input
+            (:func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`).
+        NoSteadySpeedError: a fish whose thrust never balances its drag.
+    """
     swimmer = swimmer_from_arguments(arguments)
     speeds = arguments.speeds if arguments.speeds is not None else _speed_list(DEFAULT_SPEEDS)
     rows = steady_rows(swimmer, speeds)
@@ -253,7 +259,13 @@ def _run_steps(arguments: argparse.Namespace) -> tuple[float, int]:
 
 
 def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Step the fish from rest, write the CSV (and figures), print the summary."""
+    """Step the fish from rest, write the CSV (and figures), print the summary.
+
+    Raises:
+        UsageError: a run shorter than one beat, or output that cannot be written; and the
+            errors of :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
+        SwimInputError: a run that diverges.
+    """
     swimmer = swimmer_from_arguments(arguments)
     step, steps = _run_steps(arguments)
     directory: Path | None = arguments.figures
@@ -291,7 +303,13 @@ def _check_gif_output(path: Path) -> None:
 
 
 def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Write a run as a GIF, one frame every 1/fps s: simulated from rest, or recorded (--bag)."""
+    """Write a run as a GIF, one frame every 1/fps s: simulated from rest, or recorded (--bag).
+
+    Raises:
+        UsageError: options of the other kind of run, a missing option, a frame count outside
+            [2, MAX_FRAMES], an output that is not a writable .gif, or a bag that cannot be read;
+            and the errors of :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
+    """
     if arguments.bag is not None:
         _animate_recording(arguments, out)
         return
@@ -380,7 +398,14 @@ def _animate_recording(arguments: argparse.Namespace, out: TextIO) -> None:
 
 
 def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Fit C_D (and K_D with yaw rates), print the rows and values, write the fish file."""
+    """Fit C_D (and K_D with yaw rates), print the rows and values, write the fish file.
+
+    Raises:
+        MeasurementError: an unusable measurements file.
+        FitRefusedError: no parameters in range reproduce the measurements.
+        UsageError: an output that cannot be written; and the errors of
+            :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
+    """
     measurements = read_measurements(arguments.measurements)
     swimmer = swimmer_from_arguments(arguments)
     output: Path | None = arguments.output
@@ -405,7 +430,12 @@ def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
 
 
 def run_motor(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Print the motor's sizing for the tail (and draw its torque-speed figure)."""
+    """Print the motor's sizing for the tail (and draw its torque-speed figure).
+
+    Raises:
+        UsageError: a bad motor option or a figure that cannot be written; and the errors of
+            :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
+    """
     parameters = motor_parameters_from_arguments(arguments)
     swimmer = swimmer_from_arguments(arguments)
     figure: Path | None = arguments.figure

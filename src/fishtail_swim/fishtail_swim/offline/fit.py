@@ -1,25 +1,9 @@
 """Fit the fish's drag C_D (and, with turning rates, its yaw damping K_D) to measured speeds.
 
-The measurements are a CSV file with a header: ``carrier_speed_rad_s,speed_m_s`` and optionally
-``yaw_rate_rad_s`` (the mean turning rate, counter-clockwise seen from above positive); ``#``
-starts a comment, blank lines are skipped.
-
-Residuals are relative (model / measured - 1) for speeds. The model's cruising speed is
-proportional to the carrier speed (every force is quadratic in velocity), so absolute residuals
-would let the fastest rows decide the fit, while the errors of a timed run (distance, start and
-stop, the beat fraction) are roughly a fixed fraction of the speed; relative residuals weight every
-row alike. Yaw rates, which may be zero or of either sign, are compared per unit carrier speed,
-(r_model - r_measured) / carrier speed, which weights the rows alike for the same reason.
-
-Speeds only: the cycle-average balance with sway and yaw held, <F_T,x>(U) = ½ rho S C_D U²
-(:func:`~fishtail_plant.fish.figures.steady_surge_speed`). Its speed is exactly the carrier
-speed times a function s(C_D) that falls monotonically with C_D, so the least-squares fit of the
-relative residuals s w_i / U_i - 1 is the closed form s* = sum(x_i) / sum(x_i²), x_i = w_i / U_i,
-and the C_D that gives s* is the balance itself solved for C_D at U* = s* w:
-C_D = <F_T,x>(U*) / (½ rho S U*²) (the tail's mean thrust at U*, no iteration; a value outside
-the parameter's range means no C_D in range reproduces the speeds, and the fit is refused). Each
-row's own balancing C_D is reported too: their spread shows how well the rows agree. With speeds
-and yaw rates the free body is stepped in time (:mod:`.fit_free_body`).
+``fishtail-swim fit``: the measurements file (``carrier_speed_rad_s,speed_m_s[,yaw_rate_rad_s]``),
+C_D from speeds alone by the cycle-average balance in closed form, the report and the fitted fish
+file; with yaw rates the free body is stepped in time (:mod:`.fit_free_body`). The file, the
+relative residuals, the closed form and the refusals: docs/swimming-dynamics.md (``fit``).
 
 >>> text = ["# two runs", "carrier_speed_rad_s,speed_m_s", "", "4,0.17", "8,0.35  # calm water"]
 >>> rows = parse_measurements(text, "m.csv")
@@ -109,7 +93,11 @@ class FitResult(NamedTuple):
 
 
 def read_measurements(path: Path) -> Measurements:
-    """The measurements in the CSV file at ``path`` (MeasurementError if unusable)."""
+    """The measurements in the CSV file at ``path``.
+
+    Raises:
+        MeasurementError: a file that cannot be read or used (names the file, the line and why).
+    """
     try:
         with open(path, encoding="utf-8-sig", newline="") as stream:
             return parse_measurements(stream, str(path))
@@ -122,7 +110,12 @@ def read_measurements(path: Path) -> Measurements:
 
 
 def parse_measurements(lines: Iterable[str], source: str) -> Measurements:
-    """Parse measurement lines (header first; ``#`` comments and blank lines skipped)."""
+    """Parse measurement lines (header first; ``#`` comments and blank lines skipped).
+
+    Raises:
+        MeasurementError: no header, an unknown, repeated or missing column, a field that is not a
+            finite number, a speed <= 0, or fewer rows than parameters to fit.
+    """
     header: list[str] | None = None
     columns: dict[str, list[float]] = {}
     for line_number, line in enumerate(lines, start=1):
@@ -216,7 +209,10 @@ class BalanceFit(NamedTuple):
 
 
 def balance_drag_coefficient(swimmer: Swimmer, measurements: Measurements) -> BalanceFit:
-    """C_D from the speeds by the cycle-average balance in closed form (see the module's text)."""
+    """C_D from the speeds by the cycle-average balance, in closed form.
+
+    The derivation: docs/swimming-dynamics.md (``fit``, "Speeds only").
+    """
     carriers, speeds = measurements.carrier_speed_rad_s, measurements.speed_m_s
     ratio, ratio_error = best_speed_ratio(measurements)
     # The balance's speed is proportional to the carrier speed: any reference speed gives the
@@ -237,7 +233,11 @@ def balance_drag_coefficient(swimmer: Swimmer, measurements: Measurements) -> Ba
 
 
 def check_drag_in_range(drag_coefficient: float, model: str) -> None:
-    """Refuse a C_D outside its spec's range, saying which way the measurements point."""
+    """Refuse a C_D outside its spec's range, saying which way the measurements point.
+
+    Raises:
+        FitRefusedError: ``drag_coefficient`` below or above the range.
+    """
     low, high = drag_range()
     if drag_coefficient < low:
         raise FitRefusedError(
@@ -253,7 +253,11 @@ def check_drag_in_range(drag_coefficient: float, model: str) -> None:
 
 
 def fit_drag(swimmer: Swimmer, measurements: Measurements) -> FitResult:
-    """C_D from cruising speeds by the held-body balance; the model's speeds at every row."""
+    """C_D from cruising speeds by the held-body balance; the model's speeds at every row.
+
+    Raises:
+        FitRefusedError: no C_D in its range reproduces the speeds.
+    """
     balance = balance_drag_coefficient(swimmer, measurements)
     check_drag_in_range(balance.drag_coefficient, "held-body balance")
     fish = dataclasses.replace(swimmer.fish, drag_coefficient=balance.drag_coefficient)

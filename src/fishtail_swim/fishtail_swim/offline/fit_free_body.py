@@ -1,27 +1,10 @@
 """Fit C_D and K_D together to cruising speeds and mean yaw rates: the free body, stepped in time.
 
-The Cardan tails are not half-wave antisymmetric, so the free fish swims a wide circle; its mean
-yaw rate depends on the yaw damping K_D (and on C_D through the speed), and the free body also
-swims a few % faster than the held-body balance. Only time-stepped runs of the free body from rest
-give these, so both parameters are fitted on them.
-
-One carrier speed is enough. Every force is quadratic in velocity, so a run at carrier speed w is
-a run at w' with time scaled by w/w' and velocities by w'/w: the cruising speed and the mean yaw
-rate are the carrier speed times s(C_D, K_D) and q(C_D, K_D), the same at every carrier speed
-(the discrete RK4 run too, at the same steps per beat). With residuals s w_i / U_i - 1 and
-q - r_i / w_i, the least-squares fit over the rows is s = s* (:func:`.fit.best_speed_ratio`) and
-q = q* = mean(r_i / w_i) whatever the relative weight of speeds and yaw rates, so the fit solves
-the two equations s(C_D, K_D) = s*, q(C_D, K_D) = q*:
-
-1. start: C_D from the held-body balance, K_D from one batch of fish over a grid of K_D (one run
-   of 12 fish costs about what one fish does), interpolated at the measured curvature q*/s*;
-2. refine: :func:`scipy.optimize.least_squares` within the parameters' bounds, each evaluation one
-   run of three fish (the point and a step in each parameter: value and forward-difference
-   Jacobian together).
-
-K_D is searched from 0 to :data:`YAW_DAMPING_SPAN` times the hull's cross-flow estimate
-rho D L⁴ / 120: far beyond any hull's, and yaw damping that strong makes the yaw equation stiff
-enough that 32 steps a beat are no longer accurate.
+The mean yaw rate of the free fish (the Cardan tails swim a wide circle) needs time-stepped runs.
+By the time scaling, runs at one carrier speed serve every row: a grid of K_D in one batch
+starts the fit, :func:`scipy.optimize.least_squares` refines it, each evaluation one batch of
+three fish. Why and how, and the K_D searched: docs/swimming-dynamics.md (``fit``, "With yaw
+rates").
 """
 
 from __future__ import annotations
@@ -209,7 +192,14 @@ class _Equations:
 def fit_drag_and_yaw_damping(
     swimmer: Swimmer, measurements: Measurements, settings: RunSettings | None = None
 ) -> FitResult:
-    """C_D and K_D from cruising speeds and mean yaw rates by the time-stepped free body."""
+    """C_D and K_D from cruising speeds and mean yaw rates by the time-stepped free body.
+
+    Raises:
+        ValueError: measurements without yaw rates.
+        FitRefusedError: a fit that ends on a bound with the measurements unmatched, a model that
+            turns the other way at every K_D, or one that does not converge.
+        SwimInputError: runs that diverge at these steps per beat.
+    """
     if measurements.yaw_rate_rad_s is None:
         raise ValueError("fit_drag_and_yaw_damping needs yaw rates")
     settings = settings or RunSettings()

@@ -1,12 +1,9 @@
 """A recording's samples brought to the frames of an animation: the frame times' brackets.
 
-Interpolation by time (:func:`frame_values`): a frame's value is linear between the last sample
-at or before its time and the first after it, angles along the shorter way round. Where those two
-are more than ``gap_s`` apart (a gap in the recording), the frame has no value (NaN). A frame
-beyond a topic's first or last sample takes that sample if it is within ``edge_s``, else it has
-none. :class:`Brackets` keeps, for every frame, only those two samples, so that memory is bounded
-by the frame count, not the recording's length; :class:`DecimatedPath` keeps the path of C at a
-bounded number of points a frame interval.
+:class:`Brackets` keeps, for every frame, only the samples either side of it, so that memory is
+bounded by the frame count, not the recording's length; :func:`frame_values` interpolates them
+(NaN across a gap longer than ``gap_s``); :class:`DecimatedPath` keeps C's path at a bounded
+number of points a frame interval. The rules: docs/swimming-dynamics.md (``animate --bag``).
 
 >>> interpolate_samples(np.array([0.0, 1.0]), np.array([[0.0], [2.0]]), np.array([0.25]), 2.0)
 array([[0.5]])

@@ -1,14 +1,9 @@
 """The DC motor at full duty turning the tail, revolution by revolution until its motion repeats.
 
-The time-stepped level of :mod:`fishtail_swim.offline.motor_sizing`: the DC motor
-(:class:`fishtail_plant.motor.dc_motor.DcMotor`) with the duty at 1 (the firmware's PWM at its
-clamp, 255: the speed loop saturated) and the tail's load, stepped at the motor's own internal
-step. Each revolution's time, current (its mean and RMS, by the exact integral of the current's
-straight line between steps) and extremes are kept; a revolution ends where the angle's cubic
-through both ends of a step crosses the next whole turn. The run ends when the revolutions' time
-has settled (the motion is periodic: the carrier's speed ripples the same way every turn), the
-carrier sticks, or a limit of :class:`RunLimits` is reached; the figures are the last settled
-revolutions'.
+The time-stepped level of :mod:`fishtail_swim.offline.motor_sizing`: the highest beat frequency
+the motor sustains (:class:`fishtail_plant.motor.dc_motor.DcMotor` at PWM 255 with the tail's
+load), and its current. How a revolution is timed and when the run ends: docs/motor-load.md
+("Choosing a motor", "Method").
 
 >>> from fishtail_plant.motor.dc_motor import DcMotorParameters
 >>> motor = DcMotorParameters.from_stall_and_no_load(

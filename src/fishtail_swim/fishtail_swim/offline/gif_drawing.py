@@ -1,17 +1,9 @@
 """The frames of a swimming fish (:class:`~fishtail_swim.offline.animate.FishFrames`) as a GIF.
 
-The view is fixed on the whole path while the path, fish included, spans at most
-:data:`FIT_SPAN` fish widths; a longer path would make the fish a speck, so the view then follows
-C (the fish fills most of its height) and an inset shows the whole path and where the fish is.
-
-matplotlib draws on an Agg canvas (no pyplot, no display). As in ``fishtail_kinematics``' cycle
-animation, the still parts are drawn once and each frame on a copy of them: in the whole-path view
-all but the fish, its path and the title; a following view moves its limits, ticks and grid, so
-there only the legend and the inset's frame are still and the view is drawn anew each frame.
-Pillow writes the GIF with the call matplotlib's ``PillowWriter`` makes, but takes the frames one
-at a time as they are drawn, each cut to its 256 colours at once: ``PillowWriter`` would hold every
-frame as RGB until the end (1.8 GB at :data:`MAX_FRAMES` frames of this size), Pillow holds the
-palette frames, a third of that.
+The view holds the whole path while it spans at most :data:`FIT_SPAN` fish widths, else follows C
+with an inset of the whole path. The still parts are drawn once and each frame on a copy of them,
+and Pillow takes the frames as they are drawn, as 256-colour images, to bound time and memory.
+The views, the drawing and their costs: docs/swimming-dynamics.md ("Command line", ``animate``).
 """
 
 from __future__ import annotations
@@ -292,7 +284,12 @@ def _drawn_frames(
 def write_gif(
     frames: FishFrames, path: Path, fps: float, title: str = "", progress: Progress | None = None
 ) -> Path:
-    """Draw ``frames`` and write them to ``path`` as a looping GIF playing at ``fps``."""
+    """Draw ``frames`` and write them to ``path`` as a looping GIF playing at ``fps``.
+
+    Raises:
+        ValueError: no frames or more than MAX_FRAMES, or ``fps`` outside (0, MAX_FPS].
+        OSError: the GIF cannot be written (no half-written file is left).
+    """
     if not 1 <= frames.time_s.size <= MAX_FRAMES:
         raise ValueError(f"a GIF of 1 to {MAX_FRAMES} frames, got {frames.time_s.size}")
     if not (math.isfinite(fps) and 0.0 < fps <= MAX_FPS):

@@ -1,10 +1,8 @@
 """The fish and its tail from the command line: parameter files, then flags named after the specs.
 
-The tail's geometry comes from ``--config`` (a kinematics parameter file such as
-``config/oscillatory.yaml``) and the geometry flags of ``fishtail-kinematics``; the fish from
-``--fish`` (``config/fish.yaml`` by default) and one flag per fish parameter
-(``--drag-coefficient 0.2``). Flags win over files. Every value is checked by its spec. The links'
-masses and moments of inertia (the motor's load) come from the tail's parameter file.
+The tail from ``--config`` (or ``--mechanism``) and the geometry flags, the fish from ``--fish``
+and one flag per fish parameter, the links' masses from the tail's file; flags win, every value
+checked by its spec. docs/swimming-dynamics.md ("Command line").
 """
 
 from __future__ import annotations
@@ -84,12 +82,23 @@ def _config_file(arguments: argparse.Namespace) -> Path:
 
 
 def link_inertia_from_arguments(arguments: argparse.Namespace) -> LinkInertia:
-    """The links' masses and inertias from the tail's parameter file (defaults for the others)."""
+    """The links' masses and inertias from the tail's parameter file (defaults for the others).
+
+    Raises:
+        UsageError: no such file.
+        ParameterValueError: an unreadable file or a value out of range.
+    """
     return link_inertia_from_values(load_parameter_file(_config_file(arguments)))
 
 
 def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
-    """Merge the files and flags into a checked fish and a tail that assembles."""
+    """Merge the files and flags into a checked fish and a tail that assembles.
+
+    Raises:
+        UsageError: a parameter file that does not exist.
+        ParameterValueError: an unreadable file, or a tail or fish value out of range.
+        FishtailKinematicsError: a geometry that does not assemble.
+    """
     config = _config_file(arguments)
     geometry_values: dict[str, object] = dict(geometry_parameters_in(load_parameter_file(config)))
     if arguments.mechanism is not None:

@@ -1,19 +1,9 @@
 """The carrier's torque and power over a revolution at constant speeds: a table for motor sizing.
 
-For each carrier speed (constant, phi_ddot = 0) the carrier's torque is sampled evenly over one
-revolution (:class:`~fishtail_plant.linkage_load.carrier_load.CarrierLoadModel`) in three cases:
-
-* air: the links' inertia only;
-* water, held at rest: the inertia and the water's force on the tail with the fish held at
-  u = v = r = 0 (:func:`~fishtail_plant.linkage_load.water.carrier_load_in_water`);
-* water, swimming: the same with the fish held at the forward speed U it reaches at that carrier
-  speed (the cycle-average steady speed, sway and yaw held:
-  :func:`~fishtail_plant.fish.figures.steady_surge_speed`).
-
-For each: the peak of |tau|, its RMS over the revolution (the figure that heats a DC motor's
-winding) and the mean power tau phi_dot (the shaft power the motor delivers on average); the peak
-power too for the swimming case. At constant speed the mean over a revolution is the mean over
-time. docs/motor-load.md prints the table for the report's geometry.
+For each carrier speed, in air, in water held at rest and in water swimming: the peak and RMS
+torque and the mean power (:class:`~fishtail_plant.linkage_load.carrier_load.CarrierLoadModel`,
+:func:`~fishtail_plant.linkage_load.water.carrier_load_in_water`). The cases, the columns and the
+table for the report's geometry: docs/motor-load.md ("Worked example: the report's geometry").
 
 >>> import io
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry

@@ -1,12 +1,8 @@
 """The options of ``fishtail-swim motor``: the surroundings, the frequencies, the figure, the motor.
 
-A motor is given either by its electrical constants (``--resistance-ohm``,
-``--torque-constant-n-m-a``) or by two datasheet figures at the carrier (``--stall-torque-n-m``
-and ``--no-load-speed-rad-s`` or ``--no-load-speed-rpm``, at ``--supply-voltage-v``, through
-``--gear-ratio`` and ``--gearbox-efficiency``); options not given keep
-:class:`~fishtail_plant.motor.dc_motor.DcMotorParameters`'s defaults (the Pololu 37D, 30:1), which
-are read from it, not repeated here. Its checks give the reasons for bad values; the messages
-name the options.
+A motor is given by its electrical constants or by two datasheet figures at the carrier; options
+not given keep :class:`~fishtail_plant.motor.dc_motor.DcMotorParameters`' defaults, read from it,
+and its checks' messages name the options. The options: docs/motor-load.md ("Choosing a motor").
 """
 
 from __future__ import annotations
@@ -67,7 +63,11 @@ def _frequency_list(text: str) -> FloatArray:
 
 
 def check_figure_path(path: Path) -> None:
-    """UsageError unless ``path`` can be the PNG (said before the run, not after it)."""
+    """Check that ``path`` can be the PNG, before the run rather than after it.
+
+    Raises:
+        UsageError: a name not ending in .png, a directory, or a missing parent directory.
+    """
     # matplotlib picks the format by the file's suffix.
     if path.suffix.lower() != ".png":
         raise UsageError(f"--figure {path}: the figure is a PNG, name it *.png")
@@ -126,7 +126,11 @@ def _with_options(message: str) -> str:
 
 
 def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorParameters:
-    """The checked motor; UsageError (one line) for a bad value or a wrong mix of options."""
+    """The checked motor the options describe.
+
+    Raises:
+        UsageError: a bad value (named as its option) or a wrong mix of options.
+    """
     given = {name: getattr(arguments, name) for name in _FIELDS}
     given = {name: value for name, value in given.items() if value is not None}
     stall = arguments.stall_torque_n_m

@@ -1,45 +1,10 @@
 r"""Motor sizing: how fast a DC gear motor turns the tail, and what it draws doing so.
 
-Carrier speed ω, carrier angle φ; the tail's load is τ_L(φ, ω) = ω² c(φ) with the reduced inertia
-J(φ) (:class:`~fishtail_plant.linkage_load.tail_load.TailLoad`); the motor is
-:class:`~fishtail_plant.motor.dc_motor.DcMotor` (R, k, N, η, b, τ_c, J_m, supply V). Two levels:
-
-**Quasi-static** (constant carrier speed, φ̈ = 0). The gearbox delivers τ_L(φ) at the carrier; the
-motor supplies e τ_L / N with e = 1/η while it drives the tail and η where the tail drives it back,
-so at each φ
-
-.. code-block:: text
-
-    i(φ)     = (e c(φ) ω² / N + b N ω + τ_c) / k
-    V_req(φ) = R i(φ) + k N ω  =  a(φ) ω² + β ω + γ,   a = R e c / (k N),  β = R b N / k + k N,
-                                                         γ = R τ_c / k
-
-Only a(φ) depends on φ, so the required voltage is highest where e c is, at every speed. Two
-speeds at full duty (V_req reaching the supply V) follow, each from one quadratic:
-
-* *constant speed*: the peak of V_req reaches V. Up to there the speed loop can hold the carrier
-  at a constant speed through the whole revolution; it is where the motor's torque-speed line at
-  the carrier, η N (k (V − k N ω) / R − b N ω − τ_c), meets the load's peak ω² max c.
-* *on the mean*: the mean of V_req over the revolution reaches V. This is the limit of a heavy
-  flywheel on the motor shaft, which carries the carrier through the load's peaks at a steady
-  speed while the gearbox still loses its share angle by angle.
-
-**Time-stepped** (exact for the model): the :class:`DcMotor` at full duty (the firmware's PWM at
-its clamp, 255) with the tail's load, revolution by revolution until the revolution's time
-settles; its mean speed over the last revolutions is the highest beat frequency the motor
-sustains. The rotor's J_m N² and the links' J(φ) let the speed ripple instead of holding it:
-
-* the constant-speed limit is a lower bound: below it the motor's torque exceeds the load's at
-  every angle, so the carrier speeds up;
-* with a heavy rotor the ripple vanishes and the answer tends to the on-the-mean limit;
-* with a light one the carrier slows through the load's peaks and meets them at a lower speed,
-  where the load (∝ ω²) is smaller, so it sustains more than the on-the-mean limit: for the
-  report's tails and the default motor 1.5 % more (mechanism 1) and 9 % (mechanism 2).
-
-The load at rest is zero (ω² c), so a motor that turns at all turns the tail: it cannot stop the
-carrier, only slow it. A motor *cannot start the tail* when its stall torque at the carrier (net
-of its friction) does not exceed the load at rest, and *stalls* when the speed it sustains is
-below the slowest beat frequency asked for (the tail holds it close to its stall current).
+``fishtail-swim motor``: the tail's load (:class:`~fishtail_plant.linkage_load.tail_load.TailLoad`)
+against :class:`~fishtail_plant.motor.dc_motor.DcMotor`, quasi-statically at constant carrier
+speeds (the table and two limits at full duty, each one quadratic) and time-stepped
+(:mod:`.full_duty_run`), then the verdict: sustains, stalls, or cannot start the tail. The
+equations, how the levels differ and the worked example: docs/motor-load.md ("Choosing a motor").
 
 >>> from fishtail_plant.motor.dc_motor import DcMotorParameters
 >>> motor = DcMotorParameters.from_stall_and_no_load(
@@ -191,7 +156,7 @@ def _speed_at_supply(parameters: DcMotorParameters, paid_per_speed_squared: floa
 
 
 def quasi_static_limits(parameters: DcMotorParameters, load: LoadSamples) -> QuasiStaticLimits:
-    """The constant-speed and on-the-mean limits at full duty (see the module's text)."""
+    """The constant-speed and on-the-mean limits at full duty (docs/motor-load.md, "Method")."""
     paid = _through_gearbox(load.per_speed_squared_n_m_s2, parameters.gearbox_efficiency)
     return QuasiStaticLimits(
         _speed_at_supply(parameters, float(paid.max())),

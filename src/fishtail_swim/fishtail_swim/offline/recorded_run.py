@@ -1,36 +1,11 @@
 """A recorded run for ``fishtail-swim animate --bag``: what each frame shows, read from a bag.
 
-What is read (topics found as :func:`fishtail_common.bag_reading.pick_topic` finds them, so a suite
-recorded under a namespace is read too):
-
-* ``fish/odom``: the pose (X, Y of the centre of mass, yaw psi) in ``world`` and the speed
-  |(u, v)| from the twist; required;
-* the carrier angle and speed: ``motor_angle``/``motor_velocity`` of ``tail/state``, or the carrier
-  joint of ``motor/joint_state`` when the bag has no tail/state;
-* the pivot shift: the pivot joint of ``pivot/joint_state``, else ``pivot_shift`` of ``tail/state``,
-  else none (the tail as designed);
-* ``goal_pose``: the goals, each kept once (the console sends its goal again every second).
-
-Time: every sample sits at its header stamp; t = 0 at the first ``fish/odom`` stamp. A goal
-stamped 0 sits at its receive time. Frame k is at t_k = start + k / fps, up to the end of the
-window or the last fish/odom sample, whichever comes first.
-
-Interpolation by time (:func:`~fishtail_swim.offline.frame_sampling.frame_values`): a frame's
-value is linear between the last sample at or before t_k and the first after it, angles along the
-shorter way round. Where those two are more than ``gap_s`` apart (a gap in the recording), the
-frame has no value (NaN): the fish, or the linkage, is not drawn, and the path is broken there. A
-frame beyond a topic's first or last sample takes that sample if it is within half a frame
-interval, else it has none.
-
-Memory is bounded by the frame count, not the bag's length: messages are deserialised one at a
-time (:class:`~fishtail_common.bag_reading.BagFile`) and each topic keeps, for every frame, only
-the sample before and the sample after it (:class:`~fishtail_swim.offline.frame_sampling.Brackets`,
-2 × 5 numbers a frame for the pose); the path keeps at most :data:`PATH_POINTS_PER_FRAME` points a
-frame interval (plus one break a gap); goals at most
-:data:`~fishtail_swim.offline.recorded_samples.MAX_GOALS`. A window (``--start``/``--duration``) is
-read from a few seconds before to a few after it (by receive time), not the whole bag; goal_pose
-alone is read through the whole bag (the goal current at the window's start may have been sent
-long before). What each topic's messages give: :mod:`fishtail_swim.offline.recorded_samples`.
+Reads the pose from ``fish/odom``, the carrier from ``tail/state`` (or ``motor/joint_state``), the
+pivot shift and the goals, through :class:`~fishtail_common.bag_reading.BagFile` (the reader
+``fishtail-view --bag`` uses too), only the window asked for and in memory bounded by its frame
+count (:mod:`~fishtail_swim.offline.frame_sampling`; each topic's messages:
+:mod:`~fishtail_swim.offline.recorded_samples`). Topics, time, interpolation, gaps and limits:
+docs/swimming-dynamics.md ("Command line", ``animate --bag``).
 """
 
 from __future__ import annotations
@@ -136,11 +111,15 @@ def read_recorded_run(
     namespace: str | None = None,
     max_frames: int | None = None,
 ) -> RecordedRun:
-    """Read a bag into the frames of an animation at ``fps``; :class:`BagError` if it cannot.
+    """Read a bag into the frames of an animation at ``fps``.
 
     The window starts ``start_s`` after the first fish/odom sample and lasts ``duration_s`` (None:
-    to the last fish/odom sample). ``max_frames``: refuse (BagError) a window of more frames,
-    before reading it when the bag's length tells.
+    to the last fish/odom sample).
+
+    Raises:
+        BagError: a missing, unreadable or foreign bag, no fish/odom, a window past its end, or
+            a window of more than ``max_frames`` frames (said before reading it when the bag's
+            length tells).
     """
     path = Path(path)
     with BagFile(path) as bag:

@@ -1,10 +1,9 @@
 """The cycle-average steady swimming table over carrier speeds, and its time-stepped check.
 
 Balance (fast, every speed at once): the body held at u = U, v = r = 0, U from
-:func:`~fishtail_plant.fish.figures.steady_surge_speed`; thrust, tail power and the tip's
-excursion are cycle means of the trailing-edge force over one beat at that U, with the documented
-definitions (P = -<F_T . (-Tx_dot, Ty_dot)>, eta = <F_T,x> U / P, St = f A / U).
-Check (slow): the same fish free in sway and yaw, stepped from rest (:mod:`.time_run`).
+:func:`~fishtail_plant.fish.figures.steady_surge_speed`, the figures from the trailing-edge force
+over one beat. Check (slow): the same fish free in sway and yaw, stepped from rest
+(:mod:`.time_run`). Columns and definitions: docs/swimming-dynamics.md (``steady``).
 """
 
 from __future__ import annotations

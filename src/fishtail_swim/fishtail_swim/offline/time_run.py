@@ -57,7 +57,11 @@ def run_from_rest(
     progress: Progress | None = None,
     hold_sway_yaw: bool = False,
 ) -> TimeRun:
-    """Step one fish per carrier speed (same fish parameters, or per-fish arrays) from rest."""
+    """Step one fish per carrier speed (same fish parameters, or per-fish arrays) from rest.
+
+    Raises:
+        SwimInputError: a step or step count that is not positive, or a run that diverges.
+    """
     speeds = np.atleast_1d(np.asarray(carrier_speed_rad_s, dtype=float))
     if not (math.isfinite(step_s) and step_s > 0.0) or steps < 1:
         raise SwimInputError(f"a run needs a positive step and steps, got {step_s!r}, {steps}")
@@ -83,7 +87,11 @@ def whole_beats(run: TimeRun) -> int:
 
 
 def run_figures(run: TimeRun, beats: int = SUMMARY_BEATS) -> RunFigures:
-    """Ū, <v>, <r>, turning radius, thrust, power, efficiency and St over the last whole beats."""
+    """Ū, <v>, <r>, turning radius, thrust, power, efficiency and St over the last whole beats.
+
+    Raises:
+        SwimInputError: a run shorter than one beat.
+    """
     beats = min(beats, whole_beats(run))
     if beats < 1:
         raise SwimInputError(

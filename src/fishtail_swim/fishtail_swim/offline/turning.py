@@ -1,10 +1,8 @@
 """``fishtail-swim turning``: the steady turn against modulation depth and against pivot shift.
 
-One mechanism a run (``--config`` or ``--mechanism``, as every command). The runs are the steering
-map's (:mod:`fishtail_pilot.steering_map`) at the asked mean carrier speed: a phase scan at the
-deepest depth, then each depth at the strongest phase each way, and the pivot shifts with the
-carrier unmodulated; each a batch stepped from rest (:mod:`fishtail_plant.fish.steady_turn`).
-Yaw rates are counter-clockwise positive (a left turn, REP 103); radii are signed the same way.
+The runs are the steering map's (:mod:`fishtail_pilot.steering_map`), each a batch stepped from
+rest (:mod:`fishtail_plant.fish.steady_turn`). Yaw rates and radii are counter-clockwise positive
+(a left turn, REP 103). The tables and their results: docs/steering.md.
 """
 
 from __future__ import annotations
@@ -140,7 +138,12 @@ class TurningRuns(NamedTuple):
 
 
 def run_turning(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Run the asked means' batches, print their tables (and draw the figure)."""
+    """Run the asked means' batches, print their tables (and draw the figure).
+
+    Raises:
+        UsageError: pivot shifts outside the tail's assembly range, or a figure that cannot be
+            written.
+    """
     swimmer = swimmer_from_arguments(arguments)
     tail, fish = swimmer.tail, swimmer.fish
     shifts: FloatArray = arguments.pivot_shifts
