@@ -1,12 +1,9 @@
 """``fishtail-run --firmware``: the suite's driver on the real motor-board firmware in simavr.
 
-The board is ``fishtail-avr-board`` (:mod:`fishtail_boards.avr_board`: ROSArduinoBridge built for
-an Arduino Nano by ``make firmware``, run in simavr, its motor the project's DC gear motor with
-the Pololu 37D's 30:1 gearbox and 64-count encoder), as one more process of the supervisor,
-started before the nodes and stopped after them, so that the driver's last ``m 0 0`` reaches
-it. Its pty is kept at a symlink in a folder of the run's own, and the driver gets
-``backend:=serial`` on it with the same gearbox and encoder: the whole chain ROS node, serial,
-the firmware's parser, PID and encoder interrupts, the simulated motor.
+Starts ``fishtail-avr-board`` (:mod:`fishtail_boards.avr_board`) as one more process of the
+supervisor, before the nodes and stopped after them, and gives the driver ``backend:=serial`` on
+its link, so that the whole chain from ROS node to the firmware's PID runs without hardware.
+docs/serial.md ("The real firmware in a simulator").
 """
 
 from __future__ import annotations

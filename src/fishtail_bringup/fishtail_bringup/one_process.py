@@ -3,17 +3,11 @@ r"""``fishtail-one-process``: several of the suite's nodes in one process, on on
     fishtail-one-process driver --ros-args --params-file config/oscillatory.yaml -p backend:=sim \
         -- kinematics --ros-args --params-file config/oscillatory.yaml -- monitor
 
-The Python counterpart of a component container: each node named on the command line is created
-in this process and all of them spin on one executor, which costs about half the CPU of a process
-per node at 1 kHz and passes messages with less latency; a crash in one node ends them all. A
-node's name may be followed by its own ROS arguments, closed: ``--ros-args ... --``: its parameter
-files, ``-p NAME:=VALUE`` and remappings, for that node alone, as they would be in a process of its
-own. ROS arguments that are not closed, after the last node (as ``ros2 launch`` appends them for a
-namespace), apply to every node. ``fishtail-run --one-process`` and the launch file's
-``one_process:=true`` start it.
-
-SIGINT or SIGTERM stops every node (the driver stops the motor first); a node that cannot start
-ends the process with its reason and status 2 (see :func:`fishtail_common.ros.run_nodes`).
+The Python counterpart of a component container, for a small computer: less CPU and latency
+than a process per node, but a crash in one node ends them all
+(:func:`fishtail_common.ros.run_nodes`). A node's own ROS arguments are closed by ``--``;
+unclosed ones apply to every node. The command line and its rules: docs/two-computers.md ("A
+small computer on the fish: one process").
 """
 
 from __future__ import annotations

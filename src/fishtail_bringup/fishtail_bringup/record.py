@@ -1,21 +1,10 @@
 """``fishtail-record``: record the suite's topics into a rosbag2 bag (MCAP storage).
 
-For machines without ``ros2 bag record``. The bag is written with rosbags (rosbag2 format version
-9, MCAP storage) from the raw CDR bytes that the subscriptions deliver, stamped with the receive
-time, as rosbag2 does; ``ros2 bag info`` and rosbags read it.
-
-Durability: rosbags' MCAP writer keeps a 1 MiB chunk in memory and writes the file's index only
-when it closes, and a file without its index cannot be read. So the bag is written as a rosbag2
-*split* bag: one storage file per ``--segment-sec`` seconds, each closed (index written, fsync'ed)
-before ``metadata.yaml`` is atomically rewritten to list it. Consequences (docs/recording.md):
-
-* Ctrl-C / SIGTERM / ``--duration``: the open segment is closed too, nothing received is lost;
-* SIGKILL (or a crash): the bag opens with every completed segment; the open one (at most
-  ``--segment-sec`` seconds of data) is lost and its directory ``<bag>_<k>/`` is left behind;
-* a full disk (any OSError while writing): a one-line error, the failed segment is removed so the
-  bag stays consistent, its messages and all new ones stay in memory (up to ``--max-buffer-mb``)
-  and are written as soon as the disk has room again; the exit status is 1 if any message could
-  not be written, with the count.
+For machines without ``ros2 bag record``: the raw CDR bytes the subscriptions deliver, stamped
+with the receive time, written with rosbags as a split bag
+(:class:`~fishtail_bringup.segmented_bag.SegmentedBag`) so that a kill or a full disk loses
+little; the exit status is 1 if any message could not be written. Options, layout and what
+survives what: docs/recording.md ("fishtail-record").
 """
 
 from __future__ import annotations

@@ -1,34 +1,12 @@
 """``fishtail-run``: start the node suite, command the motor and show the tail live.
 
-For machines without ``ros2 launch`` (ROS 2 from PyPI wheels): the driver, kinematics and monitor
-nodes run as separate processes, each in its own process group (so one signal reaches the whole
-process), with their output prefixed and forwarded here (:mod:`fishtail_bringup.supervisor`). This
-process also hosts a small console node that publishes the carrier speed (``motor/cmd_speed``,
-10 Hz, so the driver's watchdog stays quiet) and prints the carrier angle, theta3, the tip and the
-latest symmetry verdict. ``--swim``
-adds the swimming simulator (fishtail_swim's ``sim``, the fish from ``config/fish.yaml`` or
-``--fish``) and the fish's speed and heading from ``fish/odom`` to that line. ``--motor dc`` runs
-the simulated motor as the DC gear motor under the board's speed loop (with the default motor's
-gearbox and encoder), ``--load`` makes it turn the tail of the parameter file (in air, in water held
-at rest or towed at its swimming speed, the fish of ``--fish``); the line then shows the torque on
-the carrier and the motor's current. ``--view`` adds the live view (``fishtail-view``, for a Rerun
-viewer: it prints where to look). ``--one-process`` hosts the nodes in one process on one executor
-instead (``fishtail-one-process``; the view keeps its own): about half the CPU at 1 kHz and less
-latency, for a small computer, but a node that crashes ends them all.
-
-``--pilot`` adds the simulator and the pilot (fishtail_swim's ``pilot``), which commands the
-carrier instead of this console: ``--goal X,Y`` sends the fish to a point of the world frame,
-``--square SIDE`` around a square (anticlockwise, back to the start), and the line shows the fish's
-position, heading and distance to go. ``--steering pivot`` steers with the pivot actuator (the
-driver's simulated one) instead of the carrier's modulation.
-
-``--firmware`` runs the driver on the real motor-board firmware instead of a simulated motor:
-ROSArduinoBridge in simavr with the DC gear motor (``fishtail-avr-board``, built by ``make
-firmware``; :mod:`fishtail_bringup.firmware_board`), over a serial link; ``--load`` then makes
-that motor turn the tail.
-
-Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every node, waits for them, and
-kills any that hang. A node that dies early ends the run with exit status 1.
+For machines without ``ros2 launch`` (ROS 2 from PyPI wheels): each node a process of its own
+(:mod:`fishtail_bringup.supervisor`), or all in one with ``--one-process``, and a console node
+that publishes the carrier speed at 10 Hz and prints the status line
+(:mod:`fishtail_bringup.console_node`). Options add the simulator, the live view, the DC motor and
+its load, the pilot or the real firmware (``--help``; README.md, "The two commands"). Ctrl-C (or
+``--duration``) commands speed 0, sends SIGINT to every node, waits for them and kills any that
+hang; a node that dies early ends the run with exit status 1.
 """
 
 from __future__ import annotations

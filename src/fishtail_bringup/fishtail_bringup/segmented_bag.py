@@ -1,18 +1,10 @@
 """A rosbag2 *split* bag written segment by segment, so that a killed writer loses little.
 
-rosbags' MCAP writer keeps a 1 MiB chunk in memory and writes the file's index only when it
-closes, and a file without its index cannot be read. So :class:`SegmentedBag` writes one storage
-file per ``segment_sec`` seconds, each closed (index written, fsync'ed) before ``metadata.yaml``
-is atomically rewritten to list it:
-
-* a normal close closes the open segment too, nothing received is lost;
-* a SIGKILL (or a crash): the bag opens with every completed segment; the open one (at most
-  ``segment_sec`` seconds of data) is lost and its directory ``<bag>_<k>/`` is left behind;
-* a full disk (any OSError while writing): one error line, the failed segment is removed so the
-  bag stays consistent, its messages and all new ones stay in memory (up to
-  ``max_buffer_bytes``) and are written as soon as the disk has room again.
-
-No rclpy here: the recorder node (:mod:`fishtail_bringup.record`) feeds it raw CDR bytes.
+rosbags' MCAP writer writes a file's index only when it closes, and a file without its index
+cannot be read: :class:`SegmentedBag` closes one storage file every ``segment_sec`` seconds
+before listing it in ``metadata.yaml``, and keeps messages in memory (up to ``max_buffer_bytes``)
+while the disk is full. No rclpy here: :mod:`fishtail_bringup.record` feeds it raw CDR bytes.
+The layout and what survives what: docs/recording.md ("fishtail-record").
 """
 
 from __future__ import annotations
@@ -81,7 +73,7 @@ class CloseReport:
 
 
 class SegmentedBag:
-    """A rosbag2 split bag written segment by segment; see the module docstring.
+    """A rosbag2 split bag written segment by segment (docs/recording.md, "fishtail-record").
 
     Thread use: :meth:`add_topic` and :meth:`append` from the receiving thread, everything else
     from one writer thread (or the same thread). ``clock`` is the monotonic clock that times the
@@ -103,6 +95,9 @@ class SegmentedBag:
 
         ``say`` and ``error`` show what happens to the bag (a write failure, the recovery) to
         whoever runs it; by default on stdout and stderr.
+
+        Raises:
+            ValueError: ``segment_sec`` not positive and finite.
         """
         if not (math.isfinite(segment_sec) and segment_sec > 0.0):
             raise ValueError(f"segment_sec must be positive, got {segment_sec!r}")
@@ -178,7 +173,12 @@ class SegmentedBag:
         return self._failing_since is not None
 
     def open(self) -> None:
-        """Create the bag directory with a metadata.yaml that lists no file yet."""
+        """Create the bag directory with a metadata.yaml that lists no file yet.
+
+        Raises:
+            FileExistsError: the directory exists already.
+            OSError: it cannot be created or written.
+        """
         try:
             self.path.mkdir(parents=True)
         except FileExistsError:

@@ -1,19 +1,10 @@
 """``fishtail-view``: the suite live in a Rerun viewer (a browser or ``rerun``), or a recorded bag.
 
-Live: a ROS node in its own process, subscribing like any other client, by relative names (a
-namespace moves it) with the suite's QoS (:mod:`fishtail_common.interface`): ``tail/markers`` (the
-linkage, as RViz shows it), ``tail/state`` (sensor data: the plots of theta3, theta5 and the
-carrier speed), ``tail/symmetry`` (the verdicts), ``fish/markers`` (the fish's hull, path and tail)
-and ``goal_pose``. It serves them to Rerun viewers through :mod:`fishtail_bringup.view_rerun`
-and prints where to look.
-
-While no viewer is connected it holds no subscription but ``goal_pose`` (rare; the latest is kept
-for the next viewer), so the suite publishes no markers for it and sends it no state: the view
-then costs the suite nothing. The first viewer to connect brings the subscriptions back; the last
-to leave ends them. A suite that stops leaves the view waiting for the next one.
-
-``--bag DIR``: replay a bag of ``fishtail-record`` instead (no ROS graph), at the pace it was
-recorded (``--rate``), once the first viewer has connected; then keep serving until Ctrl-C.
+Live: a ROS node of its own that subscribes to the suite's markers, state and verdicts only while
+a viewer is connected, so that a view nobody looks at costs the suite nothing; it serves them
+through :mod:`fishtail_bringup.view_rerun`. ``--bag``: replays a bag of ``fishtail-record``
+(:mod:`fishtail_bringup.view_replay`). Topics, options and costs: docs/visualisation.md ("Live
+view without ROS tools").
 """
 
 from __future__ import annotations

@@ -1,19 +1,9 @@
 """A recorded bag as the live view's primitives, in the order and at the pace it was recorded.
 
-``fishtail-record`` records the suite's state topics, not the RViz markers, so the pictures are
-redrawn from the state as the nodes draw them:
-
-* the linkage from ``tail/state``: the engine solves the recorded carrier angle with the geometry
-  of a parameter file and :func:`~fishtail_kinematics.engine.markers.build_markers` gives the same
-  markers as the kinematics node (ring, planet, links, joints, tip trail), at most
-  :data:`TAIL_FRAME_RATE_HZ` of bag time;
-* the fish from ``fish/odom``: the hull's outline at the recorded pose, the path of its centre of
-  mass and the tail from O to the recorded tip, as the simulator's ``fish/markers`` draw them;
-* the plots from every ``tail/state``, the verdicts from ``tail/symmetry``, a goal from
-  ``goal_pose``.
-
-A bag that holds ``tail/markers`` or ``fish/markers`` (recorded with ``--topics``) is drawn from
-those instead. No rclpy here: :class:`~fishtail_common.bag_reading.BagFile` reads the bag.
+``fishtail-record`` records the suite's state, not the RViz markers, so the linkage and the fish
+are redrawn from ``tail/state`` and ``fish/odom`` as the nodes draw them (or from the markers, if
+the bag holds them). No rclpy here: :class:`~fishtail_common.bag_reading.BagFile` reads the bag.
+What is drawn from what: docs/visualisation.md ("A bag").
 """
 
 from __future__ import annotations
@@ -133,7 +123,11 @@ class FishFromOdometry:
 
 
 def tail_from_parameter_file(path: Path) -> Tail:
-    """The engine's tail for the geometry of a parameter file (ReplayError if it has none)."""
+    """The engine's tail for the geometry of a parameter file.
+
+    Raises:
+        ReplayError: a file that cannot be read or holds no geometry that assembles.
+    """
     try:
         values = load_parameter_file(path)
         return make_tail(geometry_from_parameters(geometry_parameters_in(values)))
@@ -142,7 +136,11 @@ def tail_from_parameter_file(path: Path) -> Tail:
 
 
 def fish_from_parameter_file(path: Path) -> FishFromOdometry:
-    """The fish's drawing from a fish parameter file (config/fish.yaml)."""
+    """The fish's drawing from a fish parameter file (config/fish.yaml).
+
+    Raises:
+        ReplayError: a file that cannot be read or lacks the hull's parameters.
+    """
     try:
         values = read_fish_values(path)
         return FishFromOdometry(
@@ -191,10 +189,14 @@ class BagReplay:
         return self.tail
 
     def events(self) -> Iterator[tuple[float, float | None, list[Primitive]]]:
-        """(bag time s, stamp s or None, primitives), in the bag's order; ReplayError if unreadable.
+        """(bag time s, stamp s or None, primitives), in the bag's order.
 
         The bag time is the receive time rosbag2 stores, from which the replay takes its pace;
         the stamp places the primitives on the view's time line.
+
+        Raises:
+            ReplayError: an unreadable bag, one with nothing to show, or a tail/state whose
+                mechanism has no parameter file to draw it with.
         """
         with BagFile(self.path, error=ReplayError) as bag:
             names: dict[str, str] = {}  # the bag's topic -> the suite's name for it

@@ -1,13 +1,9 @@
 """The live view's primitives into Rerun: its gRPC server, its web viewer, the layout.
 
-One :class:`RerunView` per process: a Rerun recording stream whose only sink is a gRPC server in
-this process (viewers connect to it: the web viewer this process also serves, the native ``rerun``
-viewer, anything speaking Rerun's protocol), plus the web viewer's pages over HTTP. Nothing here
-knows ROS; :mod:`fishtail_bringup.view_scene` makes the primitives.
-
-Who is looking: Rerun does not report its viewers, so :meth:`RerunView.viewer_count` counts the
-established TCP connections to the gRPC port of this process (a browser tab or a native viewer
-keeps one open while it shows the stream).
+One :class:`RerunView` per process: a recording stream whose only sink is a gRPC server here,
+plus the web viewer's pages over HTTP. Rerun does not report its viewers, so
+:meth:`RerunView.viewer_count` counts the TCP connections to the gRPC port. Nothing here knows
+ROS; :mod:`fishtail_bringup.view_scene` makes the primitives. docs/visualisation.md.
 """
 
 from __future__ import annotations
@@ -120,7 +116,10 @@ class RerunView:
     ) -> None:
         """Serve the data on ``bind:grpc_port``, the web viewer on ``web_port`` (None: none).
 
-        A port of 0 is any free one. Raises OSError when a port is taken.
+        A port of 0 is any free one.
+
+        Raises:
+            OSError: a port is taken.
         """
         import rerun as rr
 

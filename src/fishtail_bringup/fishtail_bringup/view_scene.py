@@ -2,17 +2,9 @@
 
 The view node (:mod:`fishtail_bringup.view`) and the bag replay
 (:mod:`fishtail_bringup.view_replay`) hand messages to the functions here and log what comes back
-through :mod:`fishtail_bringup.view_rerun`. Each primitive is one Rerun archetype to be:
-
-* :class:`Lines` -> ``LineStrips2D``; :class:`Points` -> ``Points2D``;
-* :class:`Series` -> ``Scalars`` sent as columns (many samples of one plotted quantity at once);
-* :class:`Text` -> ``TextLog``; :class:`Clear` -> ``Clear`` (recursive).
-
-Messages are read by their fields only, so rclpy's message classes and those rosbags makes from a
-bag both work. Sizes are RViz's: a line's width and a sphere's diameter, in metres.
-
-Entities: the tail's markers under ``tail/`` (its frame, origin O), the fish's under ``fish/``
-(``world``), the plots under ``plots/``, the verdicts in ``symmetry``.
+through :mod:`fishtail_bringup.view_rerun`; each primitive is one Rerun archetype. Messages are
+read by their fields only, so rclpy's and rosbags' both work. Archetypes, entities and sizes:
+docs/visualisation.md ("The node").
 
 >>> from types import SimpleNamespace as Msg
 >>> point = lambda x, y: Msg(x=x, y=y, z=0.0)

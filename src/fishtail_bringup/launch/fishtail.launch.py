@@ -10,12 +10,10 @@
     ros2 launch fishtail_bringup fishtail.launch.py pilot:=true  # simulator and pilot (cmd_vel)
     ros2 launch fishtail_bringup fishtail.launch.py pilot:=true steering:=pivot
 
-The launch file does not command the motor: publish the carrier speed yourself, e.g.
+It does not command the motor: publish the carrier speed yourself (the driver's watchdog stops
+the motor when commands stop), or, with ``pilot:=true``, a ``cmd_vel`` or a ``goal_pose``:
     ros2 topic pub -r 10 motor/cmd_speed std_msgs/msg/Float64 "{data: 4.0}"
-(the driver's watchdog stops the motor when commands stop), or, with ``pilot:=true``, a velocity
-or a goal for the pilot (``cmd_vel`` Twist, ``goal_pose`` from RViz's 2D Goal Pose tool).
-Machines without ros2 launch use `fishtail-run`, which also commands the speed and shows a live
-console.
+Machines without ros2 launch use ``fishtail-run``. README.md ("With a system ROS 2 Jazzy").
 """
 
 from launch.actions import DeclareLaunchArgument
@@ -74,14 +72,9 @@ def one_process_arguments(nodes, parameters):
 def generate_launch_description():
     """Three nodes in one namespace, geometry from the params file of the chosen mechanism.
 
-    ``swim:=true`` adds the swimming simulator: the same geometry, the fish of ``fish_params_file``.
-    ``motor_model:=dc`` runs the simulated motor as the DC gear motor (with its gearbox and
-    encoder), ``motor_load`` makes it turn the tail of ``params_file`` (and the fish of
-    ``fish_params_file``, which the driver reads too). ``one_process:=true`` starts one process
-    (``fishtail-one-process``) that hosts the nodes, the simulator too with ``swim:=true``, on one
-    executor, each with the same parameters; the view keeps its own process. ``pilot:=true`` adds
-    the simulator and the pilot (its own process), steering by ``steering``; with ``pivot`` the
-    driver gets its simulated pivot actuator.
+    The simulator, the view, the pilot, the DC motor and one process are optional (the launch
+    arguments' descriptions). With ``one_process:=true`` each hosted node gets the parameters it
+    would get in its own process; the view and the pilot keep their own.
     """
     mechanism = LaunchConfiguration("mechanism")
     params_file = LaunchConfiguration("params_file")
