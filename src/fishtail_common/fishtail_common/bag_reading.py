@@ -1,21 +1,10 @@
 """Reading the suite's rosbag2 bags with rosbags, one message at a time: the suite's one reader.
 
-``fishtail-analyse`` (:mod:`fishtail_kinematics.offline.recording`), ``fishtail-swim animate
---bag`` (:mod:`fishtail_swim.offline.recorded_run`) and ``fishtail-view --bag``
-(:mod:`fishtail_bringup.view_replay`) read bags that ``fishtail-record`` (or ``ros2 bag record``)
-wrote; all open them here:
-
-* :func:`bag_typestore`: the Jazzy typestore, plus the definitions the bag carries, plus the
-  installed fishtail_msgs (for what the bag does not carry);
-* :func:`pick_topic`: the topic of a type named ``<namespace>/<suffix>`` (:func:`topic_under`; a
-  suite recorded under a namespace has its topics there);
-* :class:`BagFile`: an open bag whose messages are deserialised one at a time as they are read, so
-  that a reader keeps only what it takes from each (no list of messages); a split bag
-  (``fishtail-record`` writes one storage file per segment) is read as one;
-* :func:`stamp_ns`, :func:`yaw_of_quaternion`: header stamps and planar headings.
-
-Every problem with the input raises :class:`BagError` (or the reader's own error class, given as
-``error``) with a one-line message. No rclpy: rosbags reads the bag.
+``fishtail-analyse``, ``fishtail-swim animate --bag`` and ``fishtail-view --bag`` all open bags
+here (:class:`BagFile`), so that they agree on types, topics and errors and keep only what they
+take from each message. Every problem with the input raises :class:`BagError` (or the reader's
+own error class) with a one-line message. What the reader does: docs/recording.md ("One bag
+reader").
 
 >>> round(yaw_of_quaternion(0.0, 0.0, math.sin(0.3), math.cos(0.3)), 12)  # 0.6 rad about z
 0.6
@@ -83,7 +72,10 @@ def pick_topic(
     """The topic of ``msgtype`` named ``<namespace>/<suffix>``, None if there is none.
 
     Without a namespace, the topic ``/<suffix>`` or ``.../<suffix>``; without such a name and with
-    ``any_name``: the one topic of that type, if there is one. Several candidates raise ``error``.
+    ``any_name``: the one topic of that type, if there is one.
+
+    Raises:
+        BagError: (or ``error``) several candidates; the message asks for a namespace.
     """
     topics = sorted({c.topic for c in connections if c.msgtype == msgtype})
     if namespace is not None:
@@ -128,8 +120,9 @@ def yaw_of_quaternion(x: float, y: float, z: float, w: float) -> float:
 class BagFile:
     """A rosbag2 bag (directory, ``.mcap`` or ``.db3``), open for reading; use it in ``with``.
 
-    Opening, reading and deserialising failures raise ``error`` (default :class:`BagError`) as
-    ``<path>: not a readable rosbag2 bag: <why>``.
+    Raises:
+        BagError: (or the ``error`` given) a path that does not exist, and opening, reading and
+            deserialising failures, as ``<path>: not a readable rosbag2 bag: <why>``.
     """
 
     def __init__(self, path: str | Path, error: type[Exception] = BagError) -> None:
@@ -217,7 +210,12 @@ class BagFile:
         return [c for c in self.connections if c.topic in wanted]
 
     def check(self, connections: Sequence[Any]) -> None:
-        """Raise unless each connection's type is known as the definition it was recorded with."""
+        """Check that each connection's type is known as the definition it was recorded with.
+
+        Raises:
+            BagError: (or the bag's ``error``) a type with no definition, or one recorded with
+                another definition (its hash).
+        """
         for connection in connections:
             if connection.msgtype not in self.typestore.fielddefs:
                 raise self.error(
@@ -236,6 +234,10 @@ class BagFile:
         """(connection, receive time ns, message) in the bag's order, deserialised one by one.
 
         ``start_ns``/``stop_ns`` bound the receive time (rosbag2's timestamps), stop excluded.
+
+        Raises:
+            BagError: (or the bag's ``error``) as :meth:`check`, or a truncated or undecodable
+                message.
         """
         self.check(connections)
         if not connections:

@@ -12,7 +12,11 @@ from typing import Any
 
 
 def package_msg_dir(package: str) -> Path:
-    """``share/<package>/msg`` of an installed interface package; LookupError if not found."""
+    """``share/<package>/msg`` of an installed interface package.
+
+    Raises:
+        LookupError: the package is not in the ament index.
+    """
     from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
 
     try:
@@ -24,7 +28,8 @@ def package_msg_dir(package: str) -> Path:
 def register_package_types(typestore: Any, package: str) -> list[str]:
     """Register every ``msg/*.msg`` of an installed package not yet known; the names added.
 
-    Raises LookupError if the package or its message files cannot be found.
+    Raises:
+        LookupError: the package or its message files cannot be found.
     """
     from rosbags.typesys import get_types_from_msg
 
@@ -42,7 +47,11 @@ def register_package_types(typestore: Any, package: str) -> list[str]:
 
 
 def suite_typestore() -> Any:
-    """The ROS 2 Jazzy typestore with fishtail_msgs registered (LookupError if not installed)."""
+    """The ROS 2 Jazzy typestore with fishtail_msgs registered.
+
+    Raises:
+        LookupError: fishtail_msgs is not installed.
+    """
     from rosbags.typesys import Stores, get_typestore
 
     typestore = get_typestore(Stores.ROS2_JAZZY)

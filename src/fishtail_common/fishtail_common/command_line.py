@@ -1,11 +1,8 @@
 """Command lines: options generated from parameter specs, one-line usage errors.
 
-An option is a :class:`~fishtail_common.parameters.ParameterSpec`, as a node's parameter is: the
-flag is the name with dashes (``steps_per_beat`` -> ``--steps-per-beat``), the value has the
-default's type and is checked by :meth:`~fishtail_common.parameters.ParameterSpec.check`, whose
-message is the usage error, and the help gives the meaning, unit, range and default, each written
-once, in the spec. Values that are not one value of a spec (a comma list, a ``first:last:count``
-range) have typed helpers here whose items a spec checks. Plain Python.
+An option is a :class:`~fishtail_common.parameters.ParameterSpec`, as a node's parameter is, so
+that its flag, type, check, message and help (meaning, unit, range, default) are written once, in
+the spec; lists and ``first:last:count`` ranges have typed helpers whose items a spec checks.
 
 >>> steps = ParameterSpec("steps_per_beat", 32, "RK4 steps per tail beat", "", 4, 100_000)
 >>> parser = OneLineErrorParser(prog="fishtail-demo")
@@ -84,7 +81,10 @@ def parse_value(spec: ParameterSpec, text: str) -> ParameterValue:
 
 
 def finite_number(text: str) -> float:
-    """A finite float, for values without a spec (ranges are the specs'); ArgumentTypeError.
+    """A finite float, for values without a spec (ranges are the specs').
+
+    Raises:
+        argparse.ArgumentTypeError: not a number, or not finite.
 
     >>> finite_number("0.5"), finite_number("-2")
     (0.5, -2.0)
@@ -100,6 +100,9 @@ def finite_number(text: str) -> float:
 
 def value_list(spec: ParameterSpec, text: str, most: int) -> list[float]:
     """Comma-separated numbers of ``spec``, one to ``most`` of them, each checked by it.
+
+    Raises:
+        argparse.ArgumentTypeError: no value, more than ``most``, or one the spec refuses.
 
     >>> value_list(ParameterSpec("speed", 4.0, "speed", "rad/s", 0.0), "2, 4,8", 10)
     [2.0, 4.0, 8.0]
@@ -119,6 +122,10 @@ def spaced_range(
 
     ``value`` checks the ends and ``count`` the count; the last must be above the first unless
     the count is 1. ``form`` names the three parts in the messages.
+
+    Raises:
+        argparse.ArgumentTypeError: not three parts, a part the specs refuse, or ends out of
+            order.
 
     >>> shifts = ParameterSpec("pivot_shift_m", 0.0, "pivot shift", "m")
     >>> points = ParameterSpec("count", 5, "how many", "", 2, 1000)

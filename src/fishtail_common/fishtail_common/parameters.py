@@ -53,7 +53,12 @@ class ParameterSpec:
         return f"{self.description} [{self.unit}]" if self.unit else self.description
 
     def check(self, value: object) -> ParameterValue:
-        """``value`` converted to the parameter's type, or :class:`ParameterValueError`."""
+        """``value`` converted to the parameter's type.
+
+        Raises:
+            ParameterValueError: a value of the wrong type, out of range, not a choice or empty
+                where it may not be; the message is the reason.
+        """
         kind = type(self.default)
         if kind is bool:
             if not isinstance(value, bool):

@@ -1,30 +1,10 @@
 """How regular a stream of samples is: its rate and its gaps, two ways.
 
 A consumer does not know the rate its upstream publishes at, so :class:`StreamTiming` learns it
-from the stream's stamps; a producer knows what its parameters promise, so :class:`RateCheck`
-measures against that promise. Both are plain Python (no ROS) and cheap per sample.
-
-**Learned** (:class:`StreamTiming`; the kinematics node and the monitor do not know the
-driver's ``publish_rate_hz``): the usual interval is the median of the last :data:`WINDOW`
-intervals between sample stamps (robust to lost samples as long as fewer than half of those
-intervals are stretched, and following a changed rate within :data:`WINDOW` samples). An interval
-is a **gap** when it is longer than ``max(GAP_FACTOR x usual interval, GAP_FLOOR_S)``. The floor
-keeps a fast stream's scheduling jitter (a few ms at 1 kHz) from counting: for the report's
-geometry a 20 ms hole moves a sampled peak of theta3 by less than the monitor's warning tolerance
-even at the driver's top speed of 20 rad/s. Per period (the nodes' diagnostics period)
-:meth:`StreamTiming.take_period` returns the measured rate (intervals over the stamp time they
-span), the longest interval and the number of gaps. The rate is low when it is below
-:data:`RATE_WARN_SHARE` of what the usual interval promises: that catches loss spread evenly
-(every fifth sample lost), which stretches no interval enough to be a gap. Loss of every other
-sample looks like half the rate and is not detectable from the stream.
-
-**Promised** (:class:`RateCheck`; the driver promises ``publish_rate_hz`` samples per second,
-with the serial backend at most ``serial_poll_rate_hz``): it records when each sample was read
-and, on request, reports the rate over the last ``window_s`` and the longest gap without a sample
-in it (the gap still open at the time of the report included), and whether either falls short of
-the promise: the rate below ``min_rate_fraction`` of the promised rate, or a gap longer than
-``max_gap_s`` (but never less than :data:`GAP_PERIODS` promised periods, which slow promised
-rates reach by design). Times are seconds on one monotonic clock.
+from the stream's stamps (the kinematics node, the monitor); a producer knows what its parameters
+promise, so :class:`RateCheck` measures against that promise (the driver). Both are plain Python
+and cheap per sample. The rules and their thresholds: docs/kinematics.md ("Gaps and rate") and
+docs/serial.md ("Rate and gaps").
 
 >>> timing = StreamTiming()
 >>> flags = [timing.observe(0.005 * k) for k in range(40)]
@@ -215,6 +195,10 @@ class RateCheck:
 
         Reports cover the last ``window_s``; ``min_rate_fraction`` 0 or ``max_gap_s`` 0 disables
         that check.
+
+        Raises:
+            ValueError: ``window_s`` not > 0, ``min_rate_fraction`` outside [0, 1], or
+                ``max_gap_s`` negative.
         """
         if not window_s > 0.0:
             raise ValueError(f"window_s must be > 0, got {window_s}")
@@ -243,7 +227,11 @@ class RateCheck:
             times.popleft()
 
     def report(self, now_s: float, expected_rate_hz: float) -> RateReport:
-        """Rate and longest gap over the ``window_s`` up to ``now_s`` (not before the start)."""
+        """Rate and longest gap over the ``window_s`` up to ``now_s`` (not before the start).
+
+        Raises:
+            ValueError: ``expected_rate_hz`` not > 0.
+        """
         if not expected_rate_hz > 0.0:
             raise ValueError(f"expected_rate_hz must be > 0, got {expected_rate_hz}")
         begin = max(now_s - self.window_s, self.start_s)

@@ -1,16 +1,10 @@
 """Real nodes under test: a ROS domain of their own, node processes, a probe node.
 
-The probe records topics and waits for events, never for fixed times.
-
 Every package's tests (and ``bench/``) start nodes the same way, so this lives once, here:
-
-* :func:`claim_domain`: a ROS_DOMAIN_ID that no other process on the machine has bound (Fast DDS's
-  ports are checked) and that no parallel test run holds (a lock file per id);
-* :class:`NodeProcess`: a process in its own process group with SIGINT restored, output to files,
-  stopped with SIGINT and, if it hangs, killed with its whole group;
-* :class:`Probe`: an rclpy context of its own on the domain, a node, recorders and waits.
-
-Waits raise :class:`TimeoutError` naming what was awaited; pytest reports it as a failure.
+:func:`claim_domain` (a ROS_DOMAIN_ID no other process or parallel run holds), :class:`NodeProcess`
+(a process in its own group, stopped with SIGINT, then its group killed) and :class:`Probe`
+(recorders and waits). The probe waits for events, never for fixed times; a wait that times out
+raises :class:`TimeoutError` naming what was awaited.
 """
 
 from __future__ import annotations
@@ -102,7 +96,10 @@ def claim_domain(avoid: set[int] | frozenset[int] = frozenset()) -> DomainLock:
     """A domain id whose ports nobody has bound and that no other test run holds.
 
     Ids in ``avoid`` (those this run has used: their processes may still hold ports) are tried
-    last. Raises RuntimeError when every id is taken.
+    last.
+
+    Raises:
+        RuntimeError: every id is bound or locked.
     """
     LOCK_DIR.mkdir(parents=True, exist_ok=True)
     ports = _udp_ports_in_use()
@@ -152,7 +149,10 @@ def _default_sigint() -> None:
 
 
 class NodeProcess:
-    """One process (a node, ``ros2 launch`` ...) started in its own process group."""
+    """One process (a node, ``ros2 launch`` ...) in its own process group, its output to files.
+
+    SIGINT is restored in it; :meth:`stop` sends SIGINT, waits, then kills the whole group.
+    """
 
     def __init__(
         self,
@@ -309,7 +309,8 @@ class Probe:
     def spin_until(self, predicate: Callable[[], object], timeout: float, what: str) -> float:
         """Process callbacks until ``predicate()`` is true; seconds it took.
 
-        Raises TimeoutError naming ``what`` after ``timeout`` seconds.
+        Raises:
+            TimeoutError: naming ``what``, after ``timeout`` seconds.
         """
         start = time.monotonic()
         deadline = start + timeout
