@@ -1,13 +1,10 @@
 """Mechanism 2's second loop followed from the straight pose over SW's angle, as far as it goes.
 
-The loop A-U-V-W, written relative to S, depends on SW's angle to the body axis only: S and the
-slider's guide both lie on the body axis, so shifting S along it changes nothing in the loop. A
-pivot shift does change which angles SW sweeps (its swing turns by the swing bias and widens or
-narrows), so a shifted tail needs the loop's branch, continuous with the straight pose, over
-angles the design never reached. :class:`ArmSweep` continues the branch outwards from the
-straight pose in small steps, once per design geometry and only as far as some shift has needed,
-and remembers where the branch ends (a toggle pose, U leaving AV's slot, A passing S, or no
-closure), so that later shifts cost a look-up and a polynomial fit.
+A pivot shift turns SW's swing to angles the design never reached, so a shifted tail needs the
+loop's branch, continuous with the straight pose, there. :class:`ArmSweep` follows it outwards in
+small steps, once per design geometry and only as far as some shift has needed, and remembers
+where it ends, so that later shifts cost a look-up and a polynomial fit. Why the loop depends on
+SW's angle alone, and the ranges found: docs/kinematics.md ("The pivot shift").
 
 >>> sweep = ArmSweep(lambda angle, guess: guess, straight_slider_a_distance=0.1)
 >>> sweep.cover(-0.01, 0.02) is None

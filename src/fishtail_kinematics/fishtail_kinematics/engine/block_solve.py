@@ -1,18 +1,9 @@
 """A tail's array path on any batch: checked inputs, cache-sized blocks, caller-given outputs.
 
-Both tails' ``solve`` hand their array path (a function of two broadcastable 1-d arrays that
-returns a state of arrays) to :func:`solve_arrays`, which
-
-* refuses non-finite input (rather than returning NaN) and turns 0-d input into 0-d output;
-* evaluates batches larger than :data:`~fishtail_kinematics.engine.blocks.BLOCK_SAMPLES` a block
-  at a time, each block's results written into the output arrays, on up to ``workers`` threads
-  (the blocks are independent, so the results are those of the whole batch to the last bit);
-* writes into ``out``, a state of preallocated arrays of the broadcast shape, when given (as
-  numpy's ufuncs do), and returns it.
-
-Without ``out``, a batch's ``motor_angle`` and ``motor_velocity`` are the inputs (read-only
-broadcast views where they broadcast), not copies, and a field the solver returns as another field
-(mechanism 1's theta3_dot is its theta2_dot) is the same array, as on the unblocked path.
+Both tails' ``solve`` hand their array path to :func:`solve_arrays`, so that large batches run a
+block at a time (on up to ``workers`` threads, the same bits whatever their number), non-finite
+input is refused rather than returned as NaN, and results can go into preallocated arrays
+(``out=``, as numpy's ufuncs do). What the caller gets: docs/kinematics.md ("Performance").
 """
 
 from __future__ import annotations
@@ -33,7 +24,11 @@ ArraySolver = Callable[[FloatArray, FloatArray], State]
 
 
 def finite_array(name: str, value: npt.ArrayLike) -> FloatArray:
-    """``value`` as a float array; InvalidInputError naming the first non-finite value."""
+    """``value`` as a float array.
+
+    Raises:
+        InvalidInputError: a non-finite value (naming the first and its flat index).
+    """
     array = np.asarray(value, dtype=float)
     if not np.isfinite(array).all():
         bad = np.flatnonzero(~np.isfinite(array.ravel()))
@@ -52,7 +47,17 @@ def solve_arrays(
     out: State | None = None,
     workers: int | None = None,
 ) -> State:
-    """``solver`` over the broadcast inputs, a block at a time; see the module's description."""
+    """``solver`` over the broadcast inputs, a block at a time, into ``out`` when given.
+
+    0-d input gives 0-d output. Without ``out`` the state's ``motor_angle`` and
+    ``motor_velocity`` are the inputs (read-only broadcast views), not copies, and a field the
+    solver returns as another field (mechanism 1's theta3_dot is its theta2_dot) is the same
+    array, as on the unblocked path.
+
+    Raises:
+        InvalidInputError: a non-finite input, or an ``out`` of the wrong type, dtype or shape,
+            read-only, broadcast, or sharing memory with another array or an input.
+    """
     phi = finite_array("carrier angle", motor_angle)
     phi_dot = finite_array("carrier speed", motor_velocity)
     shape = np.broadcast_shapes(phi.shape, phi_dot.shape)

@@ -72,8 +72,11 @@ def run_blocks(
 
     ``workers`` None means :func:`default_workers`; 1 runs every block on the calling thread. The
     blocks are handed out one at a time, so a worker on a busy core simply takes fewer. The
-    tasks must write disjoint outputs; the first exception raised by any task is raised here,
-    after every thread has stopped.
+    tasks must write disjoint outputs.
+
+    Raises:
+        ValueError: ``workers`` < 1.
+        Exception: the first exception any task raised, after every thread has stopped.
     """
     if workers is None:
         workers = default_workers()

@@ -1,23 +1,10 @@
 """The carrier's speed over one revolution: a mean speed and a once-per-revolution modulation.
 
 A one-way motor cannot bias the tail's swing, but it can run the carrier faster through one
-half-stroke than through the other. The profile is a function of the carrier angle phi (what the
-driver measures and can follow):
-
-    phi_dot(phi) = Omega (1 + delta cos(phi - phi_0)) / sqrt(1 - delta²)
-
-with Omega the mean speed, delta the modulation depth (0 <= delta < 1) and phi_0 the carrier angle
-of the fastest point. The factor 1/sqrt(1 - delta²) keeps a revolution's duration 2 pi / Omega at
-every depth, so the beat frequency is Omega / 2 pi whatever the modulation (steering does not
-change the speed command's meaning).
-
-The motion from a start angle has a closed form. With the mean phase nu, which grows as Omega t,
-and chi = phi - phi_0:
-
-    tan(chi / 2) = sqrt((1 + delta) / (1 - delta)) tan(nu / 2)
-
-(integrate dt = dphi / phi_dot(phi)), so :meth:`CarrierSpeedProfile.motion` gives phi, phi_dot and
-phi_ddot at any time without integrating, and :meth:`CarrierSpeedProfile.mean_phase` inverts it.
+half-stroke than the other, which steers the fish. :class:`CarrierSpeedProfile` is that law as a
+function of the carrier angle (what the driver measures and follows), with a revolution lasting
+2 pi / Omega at every depth, and its motion in time in closed form (no integration). The law and
+its closed form: docs/steering.md; how the driver follows it: docs/serial.md ("Speed profiles").
 
 >>> profile = CarrierSpeedProfile(mean_speed_rad_s=2 * math.pi, depth=0.5, phase_rad=0.0)
 >>> round(profile.speed_at(0.0) / profile.speed_at(math.pi), 6)  # (1 + delta) / (1 - delta)
@@ -54,7 +41,14 @@ TWO_PI = 2.0 * math.pi
 
 @dataclasses.dataclass(frozen=True)
 class CarrierSpeedProfile:
-    """Mean speed Omega [rad/s], depth delta and the fastest point's carrier angle phi_0 [rad]."""
+    """Mean speed Omega [rad/s], depth delta and the fastest point's carrier angle phi_0 [rad].
+
+    phi_dot(phi) = Omega (1 + delta cos(phi - phi_0)) / sqrt(1 - delta²).
+
+    Raises:
+        CarrierProfileError: a negative or non-finite speed, a depth outside [0, MAX_DEPTH], or
+            a non-finite phase.
+    """
 
     mean_speed_rad_s: float
     depth: float = 0.0

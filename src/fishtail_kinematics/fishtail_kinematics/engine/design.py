@@ -23,9 +23,10 @@ def symmetric_rocker_link(
 ) -> float:
     """RS that makes the swing symmetric about the mid-stroke pose: RS^2 = PR^2 + OS sqrt(OS^2+R^2).
 
-    The closed form is the symmetry condition only while theta2 is monotone over the stroke; for
-    the rare geometries where it is not (very short PR) this raises :class:`DesignError`, as it
-    does when the resulting linkage cannot assemble.
+    The closed form is the symmetry condition only while theta2 is monotone over the stroke.
+
+    Raises:
+        DesignError: theta2 is not monotone (very short PR), or the linkage cannot assemble.
     """
     rocker = math.sqrt(crank_link_m**2 + pivot_offset_m * math.hypot(pivot_offset_m, ring_radius_m))
     geometry = OscillatoryGeometry(
@@ -53,6 +54,9 @@ def assembly_interval(
     """The open interval of OS in which the drive assembles over the whole stroke.
 
     From |RS - PR| < OS and OS^2 + R^2 < (RS + PR)^2.
+
+    Raises:
+        DesignError: no OS assembles.
     """
     low = abs(rocker_link_m - crank_link_m)
     reach_sq = (rocker_link_m + crank_link_m) ** 2 - ring_radius_m**2
@@ -107,8 +111,10 @@ class FinRatioFit:
 def fit_fin_ratio(geometry: Geometry, samples: int = FIN_RATIO_SAMPLES) -> FinRatioFit:
     """Fit mu in theta5 ~ mu theta3 over one carrier cycle (uniform in the motor angle).
 
-    The fin angle is the mechanism's fin joint (theta5); a mechanism without one raises
-    :class:`DesignError`.
+    The fin angle is the mechanism's fin joint (theta5).
+
+    Raises:
+        DesignError: the mechanism has no fin joint.
     """
     return _fin_ratio_of(make_tail(geometry), samples)
 
@@ -149,9 +155,12 @@ class PivotShiftEffect:
 def pivot_shift_effect(
     tail: Tail, shift_m: float, samples: int = FIN_RATIO_SAMPLES
 ) -> PivotShiftEffect:
-    """The swing of ``tail`` with its pivot shifted by ``shift_m`` (PivotShiftError if it cannot).
+    """The swing of ``tail`` with its pivot shifted by ``shift_m``.
 
     The fin's extremes and mean come from ``samples`` carrier angles evenly over a revolution.
+
+    Raises:
+        PivotShiftError: a shift that is not finite or outside the feasible range.
     """
     shifted = tail.with_pivot_shift(shift_m)
     drive = shifted.drive

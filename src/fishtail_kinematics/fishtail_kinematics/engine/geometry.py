@@ -1,12 +1,9 @@
 """What describes a tail linkage: its lengths (with their parameter specs) and its solved states.
 
-Conventions (see ``docs/kinematics.md``): O = (0, 0) is the ring-gear centre, +x points back
-along the body towards the tail, +y to the left, angles counter-clockwise, SI units.
-
 Every geometry value is also a ROS parameter of the kinematics node and a flag of the command
-line: :data:`GEOMETRY_PARAMETERS` holds their specs, with defaults taken from the dataclasses
-below (so each number is written once) and the report's symbol of each length in
-:data:`GEOMETRY_SYMBOLS`.
+line, so :data:`GEOMETRY_PARAMETERS` holds their specs once, with defaults taken from the
+dataclasses (each number written once) and the report's symbols in :data:`GEOMETRY_SYMBOLS`.
+Conventions, lengths and defaults: docs/kinematics.md.
 
 >>> OscillatoryGeometry().mechanism, UndulatoryGeometry().mechanism
 ('oscillatory', 'undulatory')
@@ -58,6 +55,9 @@ class OscillatoryGeometry:
 
     Report symbols: ring_radius_m = R, crank_link_m = PR, rocker_link_m = RS, tail_link_m = ST,
     pivot_offset_m = OS, phase_rad = psi.
+
+    Raises:
+        InvalidLengthError: a value that is not finite, or a length that is not positive.
     """
 
     mechanism: ClassVar[str] = OSCILLATORY
@@ -88,6 +88,9 @@ class UndulatoryGeometry:
     Report symbols: swing_arm_m = SW, slotted_link_m = AV, fin_link_m = VT,
     fin_joint_offset_m = VW, pin_offset_m = SU (not in the report; SW/2 by default); the drive
     (R, PR, RS, OS, psi) is that of mechanism 1.
+
+    Raises:
+        InvalidLengthError: a value that is not finite, or a length that is not positive.
     """
 
     mechanism: ClassVar[str] = UNDULATORY

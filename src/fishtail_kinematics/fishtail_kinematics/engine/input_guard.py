@@ -1,31 +1,10 @@
 """Plausibility of a carrier-angle stream: which samples the nodes drop, and why (no rclpy).
 
 The kinematics node checks each ``motor/joint_state`` sample and the monitor each ``tail/state``
-sample (its ``motor_angle``) with :class:`CarrierGuard` before using it; a dropped sample is
-counted per reason in :class:`DropCounts`, which the nodes publish on ``/diagnostics``.
-
-A sample is dropped, checked in this order, when
-
-* ``non_finite``: the angle, or another value the caller needs, is NaN or infinite;
-* ``angle_out_of_range``: ``|angle|`` exceeds :data:`MAX_ABS_CARRIER_ANGLE_RAD` (1e9 rad). That
-  is 1.6e8 carrier turns, 1.6 years at the driver's default top speed of 20 rad/s, so no real run
-  gets there; and up to it a double still resolves the angle to 1.2e-7 rad, finer than any
-  encoder the driver supports at its defaults (3e-3 rad a count), so the tail pose stays exact. A
-  larger angle is a corrupt value, not a long run;
-* ``stamp_in_future``: the stamp is more than ``future_tolerance_ns`` ahead of the node's clock
-  (a clock that is off, or a corrupt stamp; a stamp of 0 is never ahead);
-* ``stamp_not_increasing``: the stamp is not after the last accepted sample's (a repeat, or
-  samples out of order);
-* ``backwards``: the angle is more than ``backwards_tolerance_rad`` below the highest accepted
-  angle. The motor turns one way only, so backwards motion is a fault (wiring, encoder, a second
-  publisher); the tolerance lets encoder jitter of a few counts through. Comparing with the
-  highest angle, not the previous one, keeps a slow backwards creep from passing in small steps.
-
-When nothing has been accepted for ``restart_after_ns`` (the nodes use their
-``stale_timeout_sec``), the next finite, in-range sample that is not ahead of the clock is
-accepted whatever its stamp and angle and becomes the new reference: a restarted driver (angle
-from 0 again) or a replayed recording is followed after that pause instead of being refused
-forever.
+sample with :class:`CarrierGuard` before using it, so that a corrupt or stray sample never
+reaches the engine or the beat statistics; :class:`DropCounts` counts the drops per reason for
+``/diagnostics``. A stream that pauses for ``restart_after_ns`` is followed afresh. The rules and
+why each bound: docs/kinematics.md ("In the nodes").
 
 >>> guard = CarrierGuard()
 >>> [guard.check(t, angle, 0.0, now_ns=10**12) for t, angle in ((1, 0.0), (2, 0.5), (3, 0.2))]
@@ -41,7 +20,7 @@ from fishtail_common.interface import CARRIER_JOINT, MOTOR_JOINT_STATE, Level
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_common.stream_timing import PeriodTiming
 
-#: Largest plausible |carrier angle| [rad] (module docstring: why 1e9).
+#: Largest plausible |carrier angle| [rad] (docs/kinematics.md: why 1e9).
 MAX_ABS_CARRIER_ANGLE_RAD = 1e9
 #: Default backwards tolerance [rad]: about three counts of the driver's default encoder
 #: (2048 counts a turn, gear ratio 1).
@@ -98,7 +77,7 @@ REASON_TEXT = {
 
 
 class CarrierGuard:
-    """The plausibility rules of the module docstring for one stream, with its reference sample.
+    """The plausibility rules for one stream, with its reference sample (docs/kinematics.md).
 
     :meth:`check` costs a few comparisons and allocates nothing.
     """

@@ -1,47 +1,12 @@
 """How every moving body of a solved linkage moves and accelerates: second-order kinematics.
 
-For a state solved at carrier speed phi_dot, each body's centre of mass G (the middle of the link,
-see :mod:`~fishtail_plant.linkage_load.link_inertia`) has a velocity and an acceleration, and the
-body an angular velocity and an angular acceleration, while the carrier turns steadily at that
-speed. At phi_dot = 1 rad/s these are the linkage's velocity ratios dG/dphi, dtheta/dphi and their
-derivatives d2G/dphi2, d2theta/dphi2; at any speed they scale with phi_dot and phi_dot^2. Frame and
-conventions: those of the engine (O at the ring-gear centre, x back, y left, angles
-counter-clockwise). e(a) = (cos a, sin a), e'(a) = (-sin a, cos a).
-
-Two kinds of body: :class:`PlaneMotion` gives G's velocity and acceleration vectors (PR, and
-mechanism 2's slider, AV and VT); :class:`TurningMotion` is a body whose centre of mass circles a
-fixed point at the body's own angular speed (the carrier, the planet, RS, ST, SW), for which the
-radius and the angular rates say all the kinetic energy needs. Each gives its terms of the reduced
-inertia (``reduced_inertia_terms``), so that a caller sums over bodies without asking their kind.
-
-The accelerations are analytic: differentiating a loop's velocity equations once more gives the
-same linear system in the second derivatives, with the squared rates on the right-hand side.
-
-* The Cardan couple, c = phi + psi: the carrier's centre of mass is C/2 with
-  C = (R/2) (-sin c, cos c), so G_carrier = (-phi_dot OP/4, OP_dot/4) per unit time, the
-  planet's centre C twice that; OP_ddot = -phi_dot^2 OP. The carrier turns at phi_dot, the planet
-  at -phi_dot.
-* Mechanism 1 (loop P + PR (cos th1, -sin th1) = S + RS e(th2)):
-
-      PR sin th1 th1'' - RS sin th2 th2'' = a = RS th2'^2 cos th2 - PR th1'^2 cos th1
-      PR cos th1 th1'' + RS cos th2 th2'' = b = OP'' + PR th1'^2 sin th1 + RS th2'^2 sin th2
-
-  so th1'' = (a cos th2 + b sin th2) / (PR sin(th1 + th2)), th2'' = (b sin th1 - a cos th1) /
-  (RS sin(th1 + th2)); th3'' = th2''.
-* Mechanism 2: the second time derivative of the four loop equations of ``docs/kinematics.md``
-  (AU = u, AS = a; ci = cos thi, si = sin thi) is, with the unknowns on the left,
-
-      c4 u'' - u s4 th4'' - a''       = r1 = 2 u' th4' s4 + u th4'^2 c4 - SU (th3'' s3 + th3'^2 c3)
-      s4 u'' + u c4 th4''             = r2 = -2 u' th4' c4 + u th4'^2 s4 + SU (th3'' c3 - th3'^2 s3)
-      a'' + AV s4 th4'' + VW s5 th5'' = r3 = SW (th3'' s3 + th3'^2 c3) - AV th4'^2 c4 - VW th5'^2 c5
-      -AV c4 th4'' - VW c5 th5''      = r4 = SW (th3'^2 s3 - th3'' c3) - AV th4'^2 s4 - VW th5'^2 s5
-
-  and it is solved in closed form like the rates: with p = r2 c4 - r1 s4 and s = r3 c5 + r4 s5,
-  a'' [c5 - (AV/u) s4 s45] = s - (AV/u) s45 p, th4'' = (p - a'' s4)/u and
-  th5'' = (r3 s5 - r4 c5 - a'' s5 - AV c45 th4'') / VW, s45 = sin(th4 - th5), c45 = cos(th4 - th5).
-
-Each tail gives the motion of its bodies (``Tail.link_motion``), so that callers (the carrier's
-load) do not depend on the mechanism.
+What the carrier's load needs of the linkage: for a state solved at carrier speed phi_dot, each
+body's centre of mass velocity and acceleration and its angular rates (at 1 rad/s the velocity
+ratios and their derivatives), analytic rather than differenced. :class:`PlaneMotion` is a body
+in general plane motion, :class:`TurningMotion` one whose centre circles a fixed point at its own
+angular speed; each gives its terms of the reduced inertia, and each tail the motion of its
+bodies (``Tail.link_motion``), so that callers do not depend on the mechanism. The equations:
+docs/motor-load.md ("The ratios' derivatives").
 
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail

@@ -1,34 +1,10 @@
 """Where every joint of a solved linkage is, in the frame at O (x back towards the tail, y left).
 
-Pure numpy, for drawing (RViz markers, the CLI's animation). Every point is an array of shape
-``state_shape + (2,)`` holding (x, y) in metres: shape (2,) for a state of floats, (N, 2) for a
-state solved over N carrier angles.
-
-The Cardan couple. The ring (radius R) is fixed with its centre at O; the carrier turns about O
-with the motor, carrying the planet (radius R/2, rolling inside the ring) on a crank of length R/2.
-The Cardan point P is the point of the planet's rim that stays on the y axis,
-P = (0, R cos c) with c = phi + psi. The planet centre C must lie at R/2 from O (carrier crank) and
-at R/2 from P (P is on the rim), so C lies on the perpendicular bisector of OP, the line
-y = (R/2) cos c, at x = +-(R/2) sin c. Taking
-
-    C = (R/2) (-sin c, cos c) = (R/2) e(c + pi/2)
-
-makes the carrier turn counter-clockwise with phi (its angle is c + pi/2). Then
-P - C = (R/2) (sin c, cos c) = (R/2) e(pi/2 - c): the planet turns at -phi in the fixed frame, as a
-planet of half the ring's radius rolling inside it must (turns of the planet = -(R/(R/2) - 1) x
-turns of the carrier). The rim point diametrically opposite P, D = 2C - P = (-R sin c, 0), slides
-along the x axis: the couple's second straight line. Drawing the diameter P-D shows the planet's
-rotation.
-
-Mechanism 1: joint R (``joint_r``) = P + PR (cos theta1, -sin theta1) = S + RS e(theta2);
-tip T = S + ST e(fin angle), S = (OS + pivot shift, 0).
-Mechanism 2: W = S + SW e(theta3 + b), pin U = S + SU e(theta3 + b) (on SW), slider
-A = (S_x - AS, 0), V = A + AV e(theta4) (U lies on AV, in its slot), T = W + (VT - VW) e(theta5),
-where b is the swing bias of a shifted pivot (SW's angle from the body axis is theta3 + b). The
-geometry given is the one with S where it is (``Tail.shifted_geometry``).
-
-Each tail gives the points of its states (``Tail.link_points``), and the points say which of them
-make the links and the moving joints, so that drawing code does not depend on the mechanism.
+Pure numpy, for drawing (RViz markers, the animations): every point is an array of shape
+``state_shape + (2,)`` of (x, y) in metres. The points also say which of them make the links and
+the moving joints (``Tail.link_points``), so that drawing code does not depend on the mechanism.
+Where the planet and the joints are: docs/kinematics.md ("The Cardan couple", and each
+mechanism's section).
 
 >>> import math
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry

@@ -1,14 +1,10 @@
 """What the RViz markers of the tail show: point lists, kinds, colours and sizes (no ROS here).
 
 :func:`build_markers` turns one solved state into a list of :class:`MarkerSpec`, each one
-``visualization_msgs/Marker`` to be: the ring gear, the planet (its circle, the carrier crank and
-the planet diameter whose ends slide on the two axes), the Cardan point, the drive links, the tail
-link, the moving joints, the fixed pivots and the tip trail. The kinematics node converts them to
-messages (:mod:`fishtail_kinematics.nodes.marker_publisher`); the points come from the tail
-(:meth:`~fishtail_kinematics.engine.mechanisms.Tail.link_points`), so RViz draws exactly what the
-engine solved.
-
-Every point is (x, y) in metres in the frame at O (z = 0).
+``visualization_msgs/Marker`` to be, from the tail's own points (``Tail.link_points``), so that
+RViz draws exactly what the engine solved; the kinematics node converts them
+(:mod:`fishtail_kinematics.nodes.marker_publisher`). Points are (x, y) in metres in the frame at
+O. The namespaces: docs/visualisation.md ("RViz").
 
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 >>> from fishtail_kinematics.engine.mechanisms import OscillatoryTail

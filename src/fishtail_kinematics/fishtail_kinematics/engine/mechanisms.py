@@ -1,18 +1,10 @@
 """The tail linkages: a Cardan (Tusi) couple drives a slider-rocker, optionally a second tail joint.
 
-Conventions (see ``docs/kinematics.md``): O = (0, 0) is the ring-gear centre, +x points back
-along the body towards the tail, +y to the left, angles counter-clockwise, SI units.
-
-* Mechanism 1 (oscillatory): the Cardan point P = (0, OP), OP = R cos(phi + psi), drives the
-  link PR; RS turns about the body pivot S = (OS, 0) and carries the tail ST, so
-  theta3 = theta2 - mid-swing.
-* Mechanism 2 (undulatory): SW turns with RS; the pin U on SW rides in the slot of AV, whose end A
-  slides along the body axis; VT is hinged to AV at V and to SW at W.
-
-Every solver takes either Python floats (the per-message path, ``math`` only) or numpy arrays
-(vectorised, no per-sample Python loop) and returns a named tuple of the same kind. Both tails
-offer their callers one surface, :class:`Tail` (name, joints, state fields, solving, the points
-to draw, the parameters they use), so that no caller needs to know which mechanism it drives.
+Where callers get a tail (:func:`make_tail`): both mechanisms offer one surface, :class:`Tail`
+(name, joints, state fields, solving, the points to draw, the parameters they use), so that no
+caller needs to know which mechanism it drives. Every solver takes Python floats (the
+per-message path, ``math`` only) or numpy arrays (vectorised, no per-sample loop) and returns a
+named tuple of the same kind. Conventions and equations: docs/kinematics.md.
 
 >>> import math
 >>> from fishtail_kinematics.engine.geometry import OscillatoryGeometry
@@ -40,5 +32,11 @@ TAIL_TYPES: dict[str, type[Tail]] = {tail.name: tail for tail in (OscillatoryTai
 
 
 def make_tail(geometry: Geometry) -> Tail:
-    """The engine for a geometry of either mechanism (validates it)."""
+    """The engine for a geometry of either mechanism (validates it).
+
+    Raises:
+        AssemblyError: the linkage cannot assemble over the whole stroke (naming the condition).
+        PinOffsetError: mechanism 2's pin U outside 0 < SU < SW - VW.
+        SolverError: mechanism 2's loop does not close (a geometry at or near a toggle pose).
+    """
     return TAIL_TYPES[geometry.mechanism](geometry)

@@ -1,6 +1,7 @@
 """Mechanism 1: the Cardan point P drives the slider-rocker PR-RS, and the tail ST turns with RS.
 
-See :mod:`~fishtail_kinematics.engine.mechanisms` for the conventions and the shared surface.
+The shared surface is :class:`~fishtail_kinematics.engine.tail_base.Tail`; the equations:
+docs/kinematics.md ("Mechanism 1").
 """
 
 from __future__ import annotations
@@ -62,7 +63,12 @@ class OscillatoryTail(Tail):
     geometry: OscillatoryGeometry
 
     def __init__(self, geometry: OscillatoryGeometry) -> None:
-        """Validate ``geometry`` and precompute its swing extremes."""
+        """Validate ``geometry`` and precompute its swing extremes.
+
+        Raises:
+            AssemblyError: the drive cannot assemble over the whole stroke (naming each failed
+                condition and its margin).
+        """
         super().__init__(geometry)
         g = geometry
         problems = assembly_violations(
@@ -114,8 +120,11 @@ class OscillatoryTail(Tail):
     def with_pivot_shift(self, pivot_shift_m: float) -> OscillatoryTail:
         """This linkage with S at OS + ``pivot_shift_m``; the tail link keeps its mounting.
 
-        Costs about 15 us (a copy and the swing's extremes at the new pivot, closed form);
-        the unshifted tail itself is returned for a zero shift.
+        A copy and the swing's extremes at the new pivot, closed form; the unshifted tail itself
+        is returned for a zero shift.
+
+        Raises:
+            PivotShiftError: a shift that is not finite or outside :meth:`pivot_shift_range`.
         """
         shift = float(pivot_shift_m)
         check_pivot_shift(shift, self.pivot_shift_range(), _DRIVE_LIMITS)
@@ -162,6 +171,9 @@ class OscillatoryTail(Tail):
 
         Floats take the scalar path; anything else is treated as arrays and broadcast together,
         in blocks, into ``out`` if given, on up to ``workers`` threads (see :meth:`Tail.solve`).
+
+        Raises:
+            InvalidInputError: a non-finite angle or speed, or an unusable ``out``.
         """
         scalars = isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int))
         if scalars and out is None:

@@ -35,7 +35,11 @@ GEOMETRY_PARAMETER_NAMES = frozenset({MECHANISM.name, *GEOMETRY_PARAMETERS_BY_NA
 
 
 def check_parameter(name: str, value: object) -> float:
-    """Return ``value`` as a float if it is a number inside the range of parameter ``name``."""
+    """Return ``value`` as a float if it is a number inside the range of parameter ``name``.
+
+    Raises:
+        ParameterError: an unknown name, a wrong type or a value outside the range.
+    """
     spec = GEOMETRY_PARAMETERS_BY_NAME.get(name)
     if spec is None:
         raise ParameterError(f"unknown geometry parameter {name!r}")
@@ -48,10 +52,12 @@ def check_parameter(name: str, value: object) -> float:
 def geometry_from_parameters(values: Mapping[str, object]) -> Geometry:
     """Build the geometry that ``values`` describe; names not given keep their defaults.
 
-    Names of the other mechanism are accepted and ignored (a node declares them all); unknown
-    names, wrong types and out-of-range values raise :class:`ParameterError` (pick a parameter
-    file's geometry with :func:`geometry_parameters_in`). Whether the linkage assembles is checked
-    by the engine, not here.
+    Names of the other mechanism are accepted and ignored (a node declares them all); pick a
+    parameter file's geometry with :func:`geometry_parameters_in`. Whether the linkage assembles
+    is checked by the engine, not here.
+
+    Raises:
+        ParameterError: an unknown name or mechanism, a wrong type or an out-of-range value.
     """
     mechanism = values.get(MECHANISM.name, MECHANISM.default)
     try:

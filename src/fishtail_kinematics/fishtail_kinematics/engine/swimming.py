@@ -1,22 +1,10 @@
 """Swimming figures from the tail tip's motion: beat frequency, excursion, Strouhal number, thrust.
 
-The report leaves the hydrodynamics to future work; these are the standard first estimates
-(``docs/swimming.md`` gives the formulas, their assumptions and the references):
-
-* tail-beat frequency f and the tip's peak-to-peak lateral excursion A, over whole beats;
-* Strouhal number St = f A / U for a forward speed U (efficient swimmers cruise at 0.2-0.4);
-* mean thrust from Lighthill's elongated-body theory, evaluated at the trailing edge (the tip T):
-
-      T = (m / 2) [ mean((dh/dt)^2) - U^2 mean((dh/dx)^2) ],   m = (pi / 4) rho s^2
-
-  with dh/dt the tip's lateral velocity, dh/dx the slope of the last link at the tip (tan of
-  theta3 for mechanism 1, of theta5 for mechanism 2), s the fin span at the trailing edge and rho
-  the water density. Time-means are over an integer number of beats.
-
-Beats are segmented by :func:`fishtail_kinematics.engine.symmetry.beats_of` (the monitor's code)
-on the fin angle given, or taken from the caller (the monitor passes the beats its tracker found on
-theta3). Every integrand is periodic with the beat, so a mean over whole beats does not depend on
-where the beats start: theta3 and theta5 beats give the same figures.
+The report leaves the hydrodynamics to future work; these are the standard first estimates from
+the tip's motion and a given forward speed, fin span and water density (f, the peak-to-peak
+excursion A, St = f A / U and Lighthill's mean thrust at the trailing edge), over whole beats
+segmented as the monitor segments them. The monitor and the offline analysis share them; the fin
+specs here are also the fish's. Formulas, assumptions and references: docs/swimming.md.
 
 >>> import math
 >>> import numpy as np
@@ -93,7 +81,10 @@ class SwimmingParameters:
 
     U is given, not computed (no drag model here; the monitor takes the swimming simulator's
     speed when it has one, :func:`choose_forward_speed`); s is the span (depth) of the fin at the
-    trailing edge. SI units; every value must be finite and positive.
+    trailing edge. SI units.
+
+    Raises:
+        ValueError: a value that is not a number, not finite, or not positive (naming the field).
     """
 
     forward_speed_m_s: float
@@ -112,7 +103,11 @@ class SwimmingParameters:
 
     @classmethod
     def from_values(cls, values: Mapping[str, object]) -> SwimmingParameters:
-        """The parameters named in ``values``; the others take their specs' defaults."""
+        """The parameters named in ``values``; the others take their specs' defaults.
+
+        Raises:
+            ValueError: as the class.
+        """
         # Any: __post_init__ checks each value's type and names the field it refuses.
         chosen: dict[str, Any] = {
             spec.name: values.get(spec.name, spec.default) for spec in SWIMMING_PARAMETERS
@@ -187,6 +182,9 @@ def strouhal_number(frequency_hz: float, excursion_m: float, forward_speed_m_s: 
 
     >>> strouhal_number(2.0, 0.05, 0.4)
     0.25
+
+    Raises:
+        ValueError: a forward speed that is not finite and > 0.
     """
     if not (math.isfinite(forward_speed_m_s) and forward_speed_m_s > 0.0):
         raise ValueError(f"forward speed must be finite and > 0, got {forward_speed_m_s!r}")
@@ -258,6 +256,10 @@ def tip_kinematics(
     (theta3 or theta5). Beats are segmented on ``fin_angle`` unless ``beats`` (contiguous, from
     a :class:`~fishtail_kinematics.engine.symmetry.BeatTracker` over the same samples) are given.
     Values are interpolated linearly at the beat boundaries; the means are trapezoidal.
+
+    Raises:
+        ValueError: arrays of unequal length or not 1-D, non-finite samples, times not strictly
+            increasing, no complete beat, beats not contiguous or not covered by the samples.
     """
     time_s = np.asarray(time_s, float)
     arrays = [np.asarray(a, float) for a in (tip_y, tip_y_velocity, fin_angle)]
@@ -305,7 +307,10 @@ def swimming_figures(
 ) -> SwimmingFigures:
     """f, A, St and Lighthill's mean thrust of a recorded tip motion over whole beats.
 
-    See :func:`tip_kinematics` for the inputs; raises ValueError without a complete beat.
+    See :func:`tip_kinematics` for the inputs.
+
+    Raises:
+        ValueError: as :func:`tip_kinematics` (e.g. no complete beat), or an unusable U.
     """
     kinematics = tip_kinematics(
         time_s, tip_y, tip_y_velocity, fin_angle, beats=beats, hysteresis_rad=hysteresis_rad

@@ -1,25 +1,11 @@
 """Tail-beat segmentation and per-beat swing statistics (used by the monitor and offline analysis).
 
-A beat runs from one upward zero crossing of theta3 to the next. A crossing counts only after
-theta3 has been below ``-hysteresis_rad`` (a Schmitt trigger), so encoder noise around zero does not
-split beats. Crossing times are interpolated linearly between samples, and so are the integrals,
-so the statistics do not depend on the sample rate to first order.
-
-A symmetric linkage spends exactly half of each beat on each side (theta3 = 0 at mid-stroke), so
-the share is the sharpest detector of a skewed geometry; the mean of theta3 is not zero even for
-the symmetric one (theta3 is not odd in OP) and gets a looser tolerance.
-
-Shares and the mean are integrals over the beat. Given the carrier angle with each sample, the
-tracker integrates over the carrier angle instead of time: then a motor whose speed ripples
-within a revolution (a board's PID, a noisy load) does not look like a skewed linkage, and the
-verdict depends on the geometry alone. At constant speed both are the same; without the carrier
-angle the integrals are over time. Period and frequency always come from time.
-
-Some beats are not judged (:attr:`Verdict.NOT_JUDGED`), because a verdict on them would be a
-verdict on missing data: a beat that contains a gap in the input (the caller says which
-intervals are gaps, see :mod:`fishtail_common.stream_timing`; peaks and integrals are
-interpolated across it), and a beat whose mean and shares are undefined because its carrier
-angle did not advance.
+Whether the tail swings symmetrically, beat by beat: :class:`BeatTracker` cuts a stream of theta3
+into beats (upward zero crossings, with hysteresis) and :func:`judge` gives each a verdict against
+:class:`SymmetryTolerances`, or :attr:`Verdict.NOT_JUDGED` where a verdict would be on missing
+data; :func:`beats_of` runs the same code over a recording. Integrals are over the carrier angle
+when it is given, so that a rippling motor speed does not look like a skewed linkage. The method
+and the tolerances: docs/kinematics.md ("The symmetry monitor").
 
 >>> import math
 >>> tracker = BeatTracker()
@@ -60,7 +46,11 @@ class Verdict(enum.IntEnum):
 
 @dataclasses.dataclass(frozen=True)
 class SymmetryTolerances:
-    """Limits of a beat's asymmetry; WARN above the first of each pair, ERROR above the second."""
+    """Limits of a beat's asymmetry; WARN above the first of each pair, ERROR above the second.
+
+    Raises:
+        ValueError: a limit that is negative or not finite, or a WARN limit above its ERROR one.
+    """
 
     time_share_warn: float = 0.005
     time_share_error: float = 0.02
@@ -219,7 +209,11 @@ class BeatTracker:
     """
 
     def __init__(self, hysteresis_rad: float = DEFAULT_HYSTERESIS_RAD) -> None:
-        """Create a tracker that needs theta3 below -hysteresis_rad before a crossing counts."""
+        """Create a tracker that needs theta3 below -hysteresis_rad before a crossing counts.
+
+        Raises:
+            ValueError: a hysteresis that is negative or not finite.
+        """
         if not (math.isfinite(hysteresis_rad) and hysteresis_rad >= 0.0):
             raise ValueError(f"hysteresis_rad must be finite and >= 0, got {hysteresis_rad!r}")
         self.hysteresis_rad = hysteresis_rad
@@ -354,6 +348,9 @@ def beats_of(
     As in the monitor, gaps are found by
     :class:`~fishtail_common.stream_timing.StreamTiming` on the stamps, and an interval
     longer than ``gap_reset_s`` forgets the beat in progress.
+
+    Raises:
+        ValueError: a hysteresis that is negative or not finite.
     """
     tracker = BeatTracker(hysteresis_rad)
     timing = StreamTiming()

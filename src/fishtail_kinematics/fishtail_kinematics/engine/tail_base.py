@@ -42,7 +42,11 @@ if TYPE_CHECKING:
 
 
 def check_finite_scalars(phi: float, phi_dot: float) -> None:
-    """Refuse a non-finite carrier angle or speed on the float path (InvalidInputError)."""
+    """Refuse a non-finite carrier angle or speed on the float path.
+
+    Raises:
+        InvalidInputError: either is NaN or infinite.
+    """
     if not (math.isfinite(phi) and math.isfinite(phi_dot)):
         raise InvalidInputError(f"carrier angle {phi!r} and speed {phi_dot!r} must be finite")
 
@@ -141,8 +145,11 @@ class Tail(abc.ABC):
         """The same mechanism and links with S at (OS + ``pivot_shift_m``, 0).
 
         The shift is measured from the design (not from this tail's shift); the tail link keeps
-        its mounting on the rocker. Raises :class:`PivotShiftError`, naming the feasible range,
-        for a non-finite shift or one at which the linkage cannot assemble over the stroke.
+        its mounting on the rocker.
+
+        Raises:
+            PivotShiftError: a non-finite shift, or one at which the linkage cannot assemble over
+                the stroke (naming the feasible range).
         """
 
     @abc.abstractmethod
@@ -171,6 +178,10 @@ class Tail(abc.ABC):
         to the last bit. ``out``, a state of this tail's type holding float64 arrays of the
         broadcast shape, receives the results and is returned (see
         :mod:`~fishtail_kinematics.engine.block_solve`).
+
+        Raises:
+            InvalidInputError: a non-finite angle or speed, or an unusable ``out``.
+            SolverError: mechanism 2's loop did not close (a geometry near a toggle pose).
         """
 
     @abc.abstractmethod
@@ -232,9 +243,12 @@ def drive_pivot_shift_range(
 
 
 def check_pivot_shift(shift_m: float, feasible: tuple[float, float], limits: str) -> None:
-    """Refuse a non-finite shift, or one outside the open interval ``feasible`` (PivotShiftError).
+    """Refuse a non-finite shift, or one outside the open interval ``feasible``.
 
     ``limits`` says what bounds the interval; the message names the interval in metres.
+
+    Raises:
+        PivotShiftError: the shift is refused.
     """
     low, high = feasible
     where = f"the feasible range is {low:.6f} m < shift < {high:.6f} m ({limits})"

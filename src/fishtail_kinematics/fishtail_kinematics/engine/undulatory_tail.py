@@ -1,6 +1,7 @@
 """Mechanism 2: mechanism 1's drive, plus the slotted link AV and the second tail joint VT.
 
-See :mod:`~fishtail_kinematics.engine.mechanisms` for the conventions and the shared surface.
+The shared surface is :class:`~fishtail_kinematics.engine.tail_base.Tail`; the equations:
+docs/kinematics.md ("Mechanism 2").
 """
 
 from __future__ import annotations
@@ -70,8 +71,13 @@ class UndulatoryTail(Tail):
 
     The loop A-U-V-W is solved for AS by Newton's method, seeded by a polynomial in theta3 fitted
     on construction to a continuation sweep from the straight pose; construction therefore also
-    proves that the branch exists over the whole swing, and raises :class:`PinOffsetError`,
-    :class:`AssemblyError` or :class:`SolverError` when it does not.
+    proves that the branch exists over the whole swing.
+
+    Raises:
+        PinOffsetError: the pin U outside 0 < SU < SW - VW.
+        InvalidLengthError: VW not shorter than VT, or a length the geometry refuses.
+        AssemblyError: the drive or the second loop cannot assemble over the whole swing.
+        SolverError: the loop does not close to tolerance (at or near a toggle pose).
 
     >>> tail = UndulatoryTail(UndulatoryGeometry())
     >>> state = tail.solve(0.0)
@@ -139,8 +145,8 @@ class UndulatoryTail(Tail):
         the shift (:meth:`_arm_swing`) on the branch of the straight pose. That is found
         numerically: the shifts on a grid of :data:`_RANGE_GRID` steps out from zero to each end
         of the drive's interval, and bisection where the first one fails, to
-        :data:`_RANGE_TOLERANCE_M`. Computed once per design geometry (a few ms; more the first
-        time, when the second loop is followed beyond the design's swing).
+        :data:`_RANGE_TOLERANCE_M`. Computed once per design geometry (docs/kinematics.md gives
+        the cost).
         """
         unshifted = self._unshifted
         if unshifted._shift_range is None:
@@ -156,9 +162,11 @@ class UndulatoryTail(Tail):
 
         The second loop is the design's (it depends on SW's body-frame angle only, see
         :mod:`~fishtail_kinematics.engine.arm_sweep`); its branch is followed over the shifted
-        swing and the solver's seed refitted there. Costs about 1 ms (the drive's extremes and a
-        polynomial fit over the followed branch); the first shift of a geometry also finds
-        :meth:`pivot_shift_range` (10-30 ms). The unshifted tail itself is returned for zero.
+        swing and the solver's seed refitted there. The unshifted tail itself is returned for
+        zero.
+
+        Raises:
+            PivotShiftError: a shift that is not finite or outside :meth:`pivot_shift_range`.
         """
         shift = float(pivot_shift_m)
         unshifted = self._unshifted
@@ -292,6 +300,10 @@ class UndulatoryTail(Tail):
 
         Floats take the scalar path; anything else is treated as arrays and broadcast together,
         in blocks, into ``out`` if given, on up to ``workers`` threads (see :meth:`Tail.solve`).
+
+        Raises:
+            InvalidInputError: a non-finite angle or speed, or an unusable ``out``.
+            SolverError: the loop did not close to tolerance.
         """
         scalars = isinstance(motor_angle, (float, int)) and isinstance(motor_velocity, (float, int))
         if scalars and out is None:

@@ -1,31 +1,12 @@
 """Kinematics node: carrier angle in, tail pose out.
 
-Topics (relative names):
-  sub ``motor/joint_state``  sensor_msgs/JointState (the driver's carrier joint), sensor-data QoS
-  sub ``pivot/joint_state``  sensor_msgs/JointState, joint ``pivot_joint``: the pivot actuator's
-                             shift of S along the body axis [m]; every carrier sample is solved
-                             with the latest shift (none received: the design's S)
-  pub ``tail/joint_states``  sensor_msgs/JointState: theta1, theta2, theta3 (+ theta4, theta5 for
-                             the undulatory mechanism), positions [rad] and velocities [rad/s]
-  pub ``tail/tip``           geometry_msgs/PointStamped, tip T in frame ``frame_id`` (origin O)
-  pub ``tail/state``         fishtail_msgs/TailState, everything, stamped like the encoder sample
-  pub ``tail/markers``       visualization_msgs/MarkerArray for RViz (config/fishtail.rviz): ring,
-                             planet, Cardan point, links, joints, tip trail; at
-                             ``markers_rate_hz`` (0 = off), built on a timer from the latest state
-  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray: STALE without input; WARN when
-                             samples were dropped (counts per reason in ``dropped_<reason>``),
-                             the input has gaps or a low rate (``input_rate_hz``,
-                             ``longest_gap_ms``, ...) or a pivot shift was refused; else OK;
-                             ``pivot_shift_m``, ``swing_bias_deg`` and ``pivot_refused`` always
-
-Implausible ``motor/joint_state`` samples are dropped before the engine sees them, by the rules
-of :mod:`fishtail_kinematics.engine.input_guard`; gaps and rate are judged by
-:mod:`fishtail_common.stream_timing`. Geometry parameters are validated by the engine
-when set: an infeasible linkage is refused with the engine's reason and the previous geometry
-stays in force; a set that changes nothing is not news and is not logged. A pivot shift at which
-the linkage cannot assemble (``Tail.with_pivot_shift`` refuses it) is reported on /diagnostics and
-the tail solved so far stays in use; so is a geometry change that the current shift would make
-infeasible.
+A thin rclpy shell around the engine: every plausible ``motor/joint_state`` sample (the input
+guard drops the others) is solved with the latest pivot shift and published as
+``tail/joint_states``, ``tail/tip`` and ``tail/state``, stamped like the encoder sample, with
+RViz markers on a timer and its input's health on ``/diagnostics``. Geometry changes are
+validated by the engine; a refused one leaves the previous geometry in force. Topics and
+parameters: README.md ("Topics", "Parameters"); input rules, pivot shift and diagnostics:
+docs/kinematics.md; markers: docs/visualisation.md.
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """``tail/markers`` of the kinematics node: RViz markers of the latest state, on a throttle timer.
 
-The node's per-message path only stores the latest (state, stamp) in :attr:`latest`; everything
-else happens here on the timer tick, at ``markers_rate_hz`` (0 = off): the tip is appended to the
-trail (one point a tick, so the trail covers ``markers_trail_length / markers_rate_hz`` seconds),
-and, if anybody subscribes, the markers of
-:func:`fishtail_kinematics.engine.markers.build_markers` are converted to one
-``visualization_msgs/MarkerArray`` and published. The first array after start or after a geometry
-change begins with a DELETEALL, so markers of the previous mechanism vanish.
-Markers that depend on the geometry only (``STATIC_NAMESPACES``) are converted once per geometry
-and re-stamped. A tick costs about 0.3 ms (mostly constructing the messages' Point objects), the
-per-message path one tuple and one attribute store.
+The node's per-message path only stores the latest (state, stamp) in :attr:`latest`, so that
+markers cost nothing per sample; on each tick at ``markers_rate_hz`` the tip joins the trail and,
+if anybody subscribes, the markers of :func:`fishtail_kinematics.engine.markers.build_markers`
+are published as one ``MarkerArray`` (the geometry-only ones converted once per geometry, a
+DELETEALL first after a geometry change). Costs and parameters: docs/visualisation.md ("RViz").
 """
 
 from __future__ import annotations

@@ -1,31 +1,11 @@
 """Monitor node: is the tail's swing symmetric?
 
-Topics (relative names):
-  sub ``tail/state``       fishtail_msgs/TailState (theta3, the tip's lateral position and
-                           velocity, the fin's body-frame angle, the stamp), sensor-data QoS
-  sub ``motor/cmd_speed``  std_msgs/Float64, to know whether beats are expected
-  sub ``fish/swimming``    fishtail_msgs/SwimFigures from the swimming simulator, if it runs
-                           (transient local): its mean_speed_m_s is the forward speed U of the
-                           swimming figures while it is fresh
-  pub ``tail/symmetry``    fishtail_msgs/SymmetryReport, one per completed beat (reliable),
-                           framed like the tail/state it was computed from; NOT_JUDGED for a
-                           beat with a gap in tail/state or undefined figures (never NaN)
-  pub ``/diagnostics``     diagnostic_msgs/DiagnosticArray with two statuses.
-                           ``tail swing symmetry``: OK / WARN / ERROR from the latest judged
-                           beat against the tolerances, STALE when tail/state stops, ERROR when
-                           the motor is commanded but no beat completes; also the swimming
-                           figures of the latest beat (tip excursion, Strouhal number, Lighthill
-                           mean thrust) for the parameters fin_span_m and water_density_kg_m3
-                           and the simulated speed, or the parameter forward_speed_m_s without
-                           one; forward_speed_source says which (docs/swimming.md).
-                           ``tail/state input``: WARN when samples were dropped (counts per
-                           reason) or tail/state has gaps or a low rate, as the kinematics node
-                           reports its own input
-
-The statistics are :mod:`fishtail_kinematics.engine.symmetry` and
-:mod:`fishtail_kinematics.engine.swimming`, the same code the offline analysis uses; the input is
-checked by :mod:`fishtail_kinematics.engine.input_guard` and
-:mod:`fishtail_common.stream_timing`.
+Judges every beat of ``tail/state`` with :mod:`fishtail_kinematics.engine.symmetry` (publishing
+``tail/symmetry``) and gives its swimming figures with :mod:`fishtail_kinematics.engine.swimming`,
+the same code the offline analysis uses, taking U from the swimming simulator's
+``fish/swimming`` while it is fresh. Its input is checked like the kinematics node's. Topics and
+parameters: README.md; verdicts and input rules: docs/kinematics.md; the figures and U:
+docs/swimming.md.
 """
 
 from __future__ import annotations
