@@ -1,15 +1,10 @@
 """The simulated fish's tf frames in plain numbers: world -> base_link -> tail_mechanism.
 
-* ``world`` -> ``base_link``: the centre of mass C at (X, Y, 0), turned by the yaw ψ about z; it
-  moves, one transform per carrier sample (the pose of ``fish/odom``).
-* ``base_link`` -> ``tail_mechanism``: fixed. O, the ring-gear centre, sits on the body axis at
-  x = -ℓ_O (``tail_origin_offset_m``); the tail frame's x points back, its y left and its z down,
-  which is the body frame turned by π about its y axis: the quaternion (0, 1, 0, 0).
-
-A transform maps a point given in the child frame into the parent frame (tf2's convention), so a
-tail point (x_t, y_t, 0) lands at (-ℓ_O - x_t, y_t, 0) in the body, as ``docs/swimming-dynamics.md``
-states. Quaternions are (x, y, z, w), geometry_msgs' order. Plain Python: the node turns these into
-messages.
+``world`` -> ``base_link`` moves with the fish (C at (X, Y, 0), turned by the yaw about z), while
+``base_link`` -> ``tail_mechanism`` is fixed (O at x = -l_O on the body axis, turned by pi about
+y). Plain Python, so that the transforms are tested without ROS; the node turns them into
+messages. Conventions (tf2's, quaternions (x, y, z, w)): docs/swimming-dynamics.md ("Frames and
+signs", "tf").
 
 >>> tail_in_body(0.05).apply((0.1, 0.02, 0.0))
 (-0.15000000000000002, 0.02, 0.0)

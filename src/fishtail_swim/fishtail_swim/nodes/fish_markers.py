@@ -1,18 +1,10 @@
 """``fish/markers`` of the simulator: the fish's body, path and tail in ``world``, on a timer.
 
 The node's per-message path only stores the latest (state, carrier angle, stamp) in
-:attr:`FishMarkerPublisher.latest`; everything here happens on the timer tick at
-``markers_rate_hz`` (0 = off): the position of the centre of mass is appended to the path (one
-point a tick, so the path covers ``markers_path_length / markers_rate_hz`` seconds) and, if
-anybody subscribes, one MarkerArray is published:
-
-* ``body``: the hull's outline, an ellipse of the body's length and diameter round C, turned by
-  the yaw (the spheroid cut in the plane of swimming; :mod:`fishtail_plant.fish.outline`);
-* ``path``: C's recent positions;
-* ``tail``: the ring-gear centre O and the tail tip T at the latest carrier angle, from the
-  kinematics engine, carried from the tail frame (x back, y left) into the body and the world.
-
-The first array after start begins with a DELETEALL, so markers of an earlier run vanish.
+:attr:`FishMarkerPublisher.latest`, so that markers cost nothing per sample; on each tick at
+``markers_rate_hz`` the path grows by a point and, if anybody subscribes, one MarkerArray shows
+the hull (:mod:`fishtail_plant.fish.outline`), the path of C and the tail from O to T. What each
+shows: docs/swimming-dynamics.md ("The simulator node").
 """
 
 from __future__ import annotations

@@ -1,16 +1,9 @@
 """tf of the simulator: ``world`` -> ``base_link`` on ``/tf``, ``base_link`` -> ``tail_mechanism``.
 
 With the body's pose in tf, RViz (fixed frame ``world``) draws the kinematics node's
-``tail/markers`` (frame ``tail_mechanism``) on the swimming fish. The transforms are those of
-:mod:`fishtail_swim.frames`; tf2's own topics and QoS are used (``fishtail_common.interface.TF``,
-``TF_STATIC``), so any tf2 listener sees them:
-
-* ``/tf``: one TFMessage per odometry message, with its stamp and its pose;
-* ``/tf_static``: one TFMessage at start, kept for late subscribers (transient local, as tf2's
-  static broadcaster does), stamped with the node's clock at start (tf2 ignores static stamps).
-
-The messages are tf2_msgs's, which the ROS 2 wheels do not include (a ROS 2 install does): without
-it the simulator runs without tf and says so once, and in its diagnostics.
+``tail/markers`` on the swimming fish. The transforms are :mod:`fishtail_swim.frames`', sent on
+tf2's own topics with its QoS; without tf2_msgs (not in the ROS 2 wheels) the simulator runs
+without tf and says so. Topics and stamps: docs/swimming-dynamics.md ("The simulator node", "tf").
 """
 
 from __future__ import annotations

@@ -1,35 +1,11 @@
 """Swimming simulator node: the carrier's samples in, one simulated fish out.
 
-Topics (relative names):
-  sub ``motor/joint_state``  sensor_msgs/JointState (the driver's carrier joint), sensor-data QoS
-  sub ``pivot/joint_state``  sensor_msgs/JointState (the driver's pivot actuator, when it has
-                             one): the tail swims with S shifted by its position from then on
-  pub ``fish/odom``          nav_msgs/Odometry per accepted sample, stamped like it: pose X, Y and
-                             the yaw psi (a quaternion about z) of the centre of mass in ``world``,
-                             twist u, v (linear x, y) and r (angular z) in ``base_link``;
-                             sensor-data QoS
-  pub ``fish/swimming``      fishtail_msgs/SwimFigures once per beat (one carrier revolution):
-                             reliable, transient local, depth 1 (a late subscriber gets the last)
-  pub ``fish/markers``       visualization_msgs/MarkerArray for RViz (body outline, path, tail) in
-                             ``world``, at ``markers_rate_hz`` (0 = off)
-  pub ``/tf``                tf2_msgs/TFMessage ``world`` -> ``base_link`` with each odometry
-                             message (its stamp and pose), while ``publish_tf`` (default true)
-  pub ``/tf_static``         tf2_msgs/TFMessage ``base_link`` -> ``tail_mechanism`` once, transient
-                             local (:mod:`fishtail_swim.frames`); both absolute, as tf2's, and only
-                             where tf2_msgs is installed
-  pub ``/diagnostics``       diagnostic_msgs/DiagnosticArray: STALE without input; WARN when
-                             samples were dropped or the input has gaps or a low rate; else OK,
-                             with the fish's speed, heading and position among the values
-
-The dynamics are :mod:`fishtail_plant.fish`, driven through :class:`SwimFollower` (RK4 between
-consecutive samples on the linearly interpolated carrier angle, sub-steps of at most
-``max_step_sec``). Implausible samples are dropped by the kinematics node's rules
-(:mod:`fishtail_kinematics.engine.input_guard`) and counted per reason; when the guard follows the
-stream afresh after its timeout, so does the fish (:meth:`SwimFollower.restart`). A sample the
-engine or the dynamics refuse is dropped as ``engine_refused``, and the fish stays where it was.
-Every parameter (the geometry as for the kinematics node, e.g. ``config/oscillatory.yaml``; the
-fish, e.g. ``config/fish.yaml``) is read-only: the simulation's fish and tail are fixed for its
-run, and a run-time change is refused by ROS.
+A thin rclpy shell around :class:`~fishtail_plant.fish.follower.SwimFollower`: one fish that swims
+with the tail the motor actually turns, integrated between consecutive ``motor/joint_state``
+samples (plausible ones only, by the kinematics node's rules), and published as ``fish/odom``,
+per-beat ``fish/swimming``, markers, tf and ``/diagnostics``. Every parameter (the geometry and
+the fish) is read-only: the fish and its tail are fixed for a run. Topics, parameters and
+behaviour: docs/swimming-dynamics.md ("The simulator node").
 """
 
 from __future__ import annotations
