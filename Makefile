@@ -21,8 +21,13 @@ RUN_CMD ?= fishtail-kinematics design --config $(CONFIG) && \
 # pytest is pointed at test/ and fails (exit 4), as it does with exit 5 when it collects nothing.
 TEST_DIRS := $(wildcard src/*/test) $(wildcard test)
 PYTEST_ARGS ?=
+# pytest-xdist workers: one per core. Each test claims a ROS domain of its own (a file lock), so
+# tests on different workers never share one.
+TEST_JOBS ?= $(shell nproc)
+# A fresh ROS_DOMAIN_ID for a run unless one is set; the tests' own nodes each get theirs.
+DOMAIN := export ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 100 + 1))} &&
 
-.PHONY: setup build run test lint bench firmware clean distclean
+.PHONY: setup build run test check lint bench firmware clean distclean
 
 setup:
 	tools/bootstrap.sh
@@ -39,13 +44,23 @@ run: setup
 lint: setup
 	$(WITH_ENV) ruff check . && mypy
 
-# Each run gets its own ROS domain (unless ROS_DOMAIN_ID is set) so that nodes started by tests
-# do not talk to other ROS processes on the machine. tools/test-system-packages.sh first installs
-# the Debian packages some tests use where it can (root with apt-get), and says so where not.
+# The whole suite on every core, the 25 slowest tests listed at the end. Each run gets its own ROS
+# domain (unless ROS_DOMAIN_ID is set) so that nodes started by tests do not talk to other ROS
+# processes on the machine. Set-up first: tools/test-system-packages.sh installs the Debian
+# packages some tests use where it can (root with apt-get), and says so where not; then
+# tools/test-firmware.sh builds the firmware for its tests (or says why not, and they skip).
 test: lint
 	tools/test-system-packages.sh
-	$(WITH_ENV) export ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 100 + 1))} && \
-	  python -m pytest $(or $(TEST_DIRS),test) $(PYTEST_ARGS)
+	tools/test-firmware.sh
+	$(WITH_ENV) $(DOMAIN) \
+	  python -m pytest $(or $(TEST_DIRS),test) -n $(TEST_JOBS) --durations=25 $(PYTEST_ARGS)
+
+# The fast tier, for every change: lint, then the tests that start no process and take under a
+# few seconds each (markers: pyproject.toml and conftest.py); under two minutes on 2 cores.
+check: lint
+	$(WITH_ENV) $(DOMAIN) \
+	  python -m pytest $(or $(TEST_DIRS),test) -m "not integration and not slow" -n $(TEST_JOBS) \
+	  $(PYTEST_ARGS)
 
 # Every bench/bench_*.py, each with the venv's python from the repository root; all run even if
 # one fails, and the target fails if any did. Benchmarks write their output under bench/out/
