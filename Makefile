@@ -62,11 +62,13 @@ check: lint
 	  python -m pytest $(or $(TEST_DIRS),test) -m "not integration and not slow" -n $(TEST_JOBS) \
 	  $(PYTEST_ARGS)
 
-# Every bench/bench_*.py, each with the venv's python from the repository root; all run even if
+# Every bench/bench_*.py, each with the venv's python from the repository root and the test kit
+# (test/support: what tests and benchmarks share) on the path; all run even if
 # one fails, and the target fails if any did. Benchmarks write their output under bench/out/
 # (git-ignored).
 bench: setup
 	$(WITH_ENV) export ROS_DOMAIN_ID=$${ROS_DOMAIN_ID:-$$((RANDOM % 100 + 1))} && \
+	  export PYTHONPATH=$(ROOT)/test/support$${PYTHONPATH:+:$$PYTHONPATH} && \
 	  shopt -s nullglob && files=(bench/bench_*.py) && \
 	  if [ $${#files[@]} -eq 0 ]; then echo "bench: no bench/bench_*.py" >&2; exit 1; fi && \
 	  mkdir -p bench/out && rc=0 && \
