@@ -278,7 +278,7 @@ def pivot_refusal(values: ParameterValues) -> str | None:
             f"pivot_actuator {values['pivot_actuator']} needs backend sim (got backend "
             f"{values['backend']}): a simulated pivot beside a real motor would publish a pivot "
             "position that nothing moves, and the driver does not yet drive a pivot on the motor "
-            "board's second channel (docs/serial.md, 'The pivot actuator on the board')"
+            "board's second channel (docs/serial.md, 'The pivot actuator')"
         )
     return None
 
