@@ -161,9 +161,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--one-process",
         action="store_true",
-        help="run the nodes in one process on one executor (about half the CPU of a process per "
-        "node at 1 kHz, lower latency; a node that crashes takes the others with it); the live "
-        "view keeps its own process",
+        help="run the nodes in one process on one executor (a quarter to a third less CPU than a "
+        "process per node at 1 kHz, lower latency; a node that crashes takes the others with "
+        "it); the live view keeps its own process",
     )
     parser.add_argument(
         "--no-command",

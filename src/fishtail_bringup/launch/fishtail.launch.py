@@ -211,7 +211,8 @@ def generate_launch_description():
                 "one_process",
                 default_value="false",
                 description="true: the nodes in one process on one executor (fishtail-one-process: "
-                "about half the CPU at 1 kHz, less latency; a crash in one node ends them all)",
+                "a quarter to a third less CPU at 1 kHz, less latency; a crash in one node ends "
+                "them all)",
             ),
             DeclareLaunchArgument(
                 "pilot",
