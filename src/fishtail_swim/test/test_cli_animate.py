@@ -126,6 +126,9 @@ def test_a_long_path_is_followed_and_a_short_one_shown_whole(tmp_path):
         (("--speed", 8, "--duration", 1.0, "--fps", "nan"), "fps = nan is outside"),
         (("--speed", 8, "--duration", 200, "--fps", 20), "count 4001, but a GIF takes 2 to 2000"),
         (("--speed", 8, "--duration", 1.0, "--fps", 0.5), "frame count 1,"),
+        # Refused before the frame times or the run are allocated (149 GiB, 911 GiB).
+        (("--speed", 4, "--duration", 1e9), "frame count 2e+10, but a GIF takes 2 to 2000"),
+        (("--speed", 4, "--duration", 90, "--steps-per-beat", 20000), "limit of 1000000"),
         (("--speed", 0, "--duration", 1.0), "speed = 0.0 is outside (0.0, inf] rad/s"),
         (("--speed", 8), "--duration"),
     ],

@@ -54,6 +54,16 @@ STEADY = ("steady", "--config", OSCILLATORY, "--fish", FISH)
         (("simulate", "--output", "{tmp}/run.csv", "--duration", "0"), "duration = 0.0 is outside"),
         (("simulate", "--output", "{tmp}/run.csv", "--duration", "0.5"), "shorter than one beat"),
         (("simulate", "--output", "{tmp}/run.csv", "--steps-per-beat", "2"), "outside [4, 100000]"),
+        # Over MAX_STEPS RK4 steps: refused before allocating (911 GiB) or writing (831 MB).
+        (("simulate", "--output", "{tmp}/run.csv", "--duration", "1e9"), "limit of 1000000"),
+        (
+            ("simulate", "--output", "{tmp}/run.csv", "--speed", "1e6", "--duration", "1"),
+            "take --duration at most 0.19635 s",
+        ),
+        (
+            ("simulate", "--output", "{tmp}/run.csv", "--speed", "1e300", "--duration", "1e300"),
+            "limit of 1000000",
+        ),
         (("simulate",), "--output"),
         (("swim",), "invalid choice"),
         ((), "required"),

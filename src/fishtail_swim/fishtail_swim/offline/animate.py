@@ -34,6 +34,7 @@ __all__ = [
     "FishFrames",
     "fish_frames",
     "follows_fish",
+    "frame_count",
     "frame_times",
     "recorded_frames",
     "write_gif",
@@ -77,6 +78,12 @@ class FishFrames(NamedTuple):
     def goals_until(self, frame: int) -> int:
         """How many goals were sent at or before frame ``frame``; the last is the current one."""
         return int(np.searchsorted(self.goal_time_s, self.time_s[frame], side="right"))
+
+
+def frame_count(duration_s: float, fps: float) -> float:
+    """How many frames :func:`frame_times` gives, without allocating them (inf when huge)."""
+    frames = duration_s * fps * (1.0 + 1e-12) + 1e-9
+    return math.floor(frames) + 1.0 if math.isfinite(frames) else math.inf
 
 
 def frame_times(duration_s: float, fps: float) -> FloatArray:

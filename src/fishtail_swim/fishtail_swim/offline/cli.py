@@ -52,7 +52,7 @@ from fishtail_swim.offline.motor_options import (
 )
 from fishtail_swim.offline.motor_sizing import size_motor
 from fishtail_swim.offline.motor_sizing_report import plot_torque_speed, write_sizing_report
-from fishtail_swim.offline.options import CARRIER_SPEED, MAX_VALUES, STEPS_PER_BEAT
+from fishtail_swim.offline.options import CARRIER_SPEED, MAX_STEPS, MAX_VALUES, STEPS_PER_BEAT
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
 from fishtail_swim.offline.tables import Column, write_table
@@ -63,7 +63,12 @@ DEFAULT_SPEEDS = "2,4,8,12,16"
 #: How many carrier speeds --speed-range spreads from the first to the last.
 SPEED_COUNT = ParameterSpec("count", 5, "carrier speeds", "", 1, MAX_VALUES)
 #: The time of a run from rest.
-DURATION = ParameterSpec("duration", 60.0, "simulated time", "s", 0.0, exclusive_minimum=True)
+DURATION = ParameterSpec(
+    "duration", 60.0,
+    f"simulated time: at least one beat, at most {MAX_STEPS} RK4 steps (duration x speed / 2 pi "
+    "x steps per beat)",
+    "s", 0.0, exclusive_minimum=True,
+)  # fmt: skip
 #: The options of an animation: a simulated run needs --speed and --duration, a recorded one
 #: takes a window (--start, --duration) and a gap.
 FPS = ParameterSpec(
@@ -246,10 +251,23 @@ def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
 
 
 def _run_steps(arguments: argparse.Namespace) -> tuple[float, int]:
-    """The step and the number of steps of a run of --duration; at least one beat."""
+    """The step and the step count of a run of --duration, checked before anything is allocated.
+
+    Raises:
+        UsageError: a run shorter than one beat or longer than MAX_STEPS steps.
+    """
     period = 2.0 * math.pi / arguments.speed
     step = period / arguments.steps_per_beat
-    steps = math.ceil(arguments.duration / step - 1e-9)
+    exact = arguments.duration / step - 1e-9
+    if not exact <= MAX_STEPS:  # also an overflow to inf
+        longest = MAX_STEPS * step
+        raise UsageError(
+            f"--duration {arguments.duration:g} s at --speed {arguments.speed:g} rad/s and "
+            f"--steps-per-beat {arguments.steps_per_beat} is {exact:.3g} RK4 steps, over the "
+            f"limit of {MAX_STEPS} a run: take --duration at most "
+            f"{longest:.6g} s, or fewer steps per beat"
+        )
+    steps = math.ceil(exact)
     if steps * step < period * (1.0 - 1e-9):
         raise UsageError(
             f"--duration {arguments.duration:g} s is shorter than one beat ({period:.6g} s at "
@@ -322,14 +340,15 @@ def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
         if value is None:
             raise UsageError(f"a simulated run needs {option} (or draw a recorded one: --bag DIR)")
     swimmer = swimmer_from_arguments(arguments)
-    step, steps = _run_steps(arguments)
-    times = animate.frame_times(arguments.duration, arguments.fps)
-    if not 2 <= times.size <= animate.MAX_FRAMES:
+    count = animate.frame_count(arguments.duration, arguments.fps)
+    if not 2 <= count <= animate.MAX_FRAMES:
         raise UsageError(
             f"--duration {arguments.duration:g} s at --fps {arguments.fps:g}: frame count "
-            f"{times.size}, but a GIF takes 2 to {animate.MAX_FRAMES} frames (change the duration "
+            f"{count:.6g}, but a GIF takes 2 to {animate.MAX_FRAMES} frames (change the duration "
             "or the fps)"
         )
+    step, steps = _run_steps(arguments)
+    times = animate.frame_times(arguments.duration, arguments.fps)
     _check_gif_output(arguments.output)
     speed = float(arguments.speed)
     run = run_from_rest(
