@@ -35,6 +35,7 @@ class FakeFish:
         self.publisher = ros.node.create_publisher(Odometry, FISH_ODOM.name, qos_profile(FISH_ODOM))
         self.timer = ros.node.create_timer(ODOM_PERIOD_S, self.publish)
         self.running = True
+        self.not_finite = False  # a tracker's NaN heading
 
     def publish(self) -> None:
         """One odometry message, the fish a step further along x."""
@@ -46,6 +47,8 @@ class FakeFish:
         self.x_m += self.speed_m_s * ODOM_PERIOD_S
         message.pose.pose.position.x = self.x_m
         message.pose.pose.orientation.w = 1.0
+        if self.not_finite:
+            message.pose.pose.orientation.z = math.nan
         message.twist.twist.linear.x = self.speed_m_s
         self.publisher.publish(message)
 
@@ -133,3 +136,35 @@ def test_odometry_that_stops_stops_the_carrier_until_it_is_back(start_node, ros)
     ros.spin_until(
         lambda: any(p.mean_speed > 0.0 for p in profiles[count:]), TIMEOUT_S, "the carrier again"
     )
+
+
+def test_odometry_that_is_not_finite_stops_the_carrier_with_an_error_until_it_is_finite(
+    start_node, ros
+):
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    diagnostics = ros.record_diagnostics()
+    start_pilot(start_node, ros, cmd_timeout_sec=0.0)
+    fish = FakeFish(ros, 0.3)
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands.publish(twist(0.3, 0.0))
+    ros.spin_until(
+        lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "a moving carrier profile"
+    )
+    fish.not_finite = True
+    count = len(profiles)
+    ros.spin_until(lambda: any(p.mean_speed == 0.0 for p in profiles[count:]), TIMEOUT_S, "a stop")
+
+    def not_finite_error():
+        return any(
+            level == Level.ERROR and "not finite" in status.message
+            for _, level, status in ros.statuses(diagnostics, "pilot")
+        )
+
+    ros.spin_until(not_finite_error, TIMEOUT_S, "an ERROR naming the odometry not finite")
+    fish.not_finite = False
+    count = len(profiles)
+    ros.spin_until(
+        lambda: any(p.mean_speed > 0.0 for p in profiles[count:]), TIMEOUT_S, "the carrier again"
+    )
+    moving = [p for p in profiles if p.mean_speed > 0.0][-1]
+    assert math.isfinite(moving.mean_speed) and moving.modulation_depth < 0.1

@@ -96,6 +96,7 @@ class PilotNode(SuiteNodeBase):
         self.sent: PilotCommand | None = None
         self.refusals: list[str] = []
         self.odometry_lost = False
+        self.dropped_reported = 0
         self.profile_message = ProfileMessage()
         self.pivot_message = Float64()
 
@@ -163,6 +164,7 @@ class PilotNode(SuiteNodeBase):
         orientation = pose.orientation
         yaw = 2.0 * math.atan2(orientation.z, orientation.w)
         was_goal = self.pilot.mode is Mode.GOAL
+        was_valid = self.pilot.feedback_valid
         command = self.pilot.observe(
             stamp.sec + stamp.nanosec * 1e-9,
             pose.position.x,
@@ -171,6 +173,15 @@ class PilotNode(SuiteNodeBase):
             message.twist.twist.linear.x,
             message.twist.twist.angular.z,
         )
+        if was_valid and not self.pilot.feedback_valid:
+            self.get_logger().error(
+                f"{FISH_ODOM.name} not finite: sample dropped, carrier stopped until a finite one",
+                throttle_duration_sec=2.0,
+            )
+        elif self.pilot.feedback_valid and not was_valid:
+            self.get_logger().info(
+                f"{FISH_ODOM.name} finite again: {self.pilot.mode.value} resumed"
+            )
         if was_goal and self.pilot.goal_reached:
             self.get_logger().info(
                 f"goal reached: fish at ({pose.position.x:.3f}, {pose.position.y:.3f}) m"
@@ -233,6 +244,7 @@ class PilotNode(SuiteNodeBase):
             "carrier_mean_speed_rad_s": f"{pilot.command.carrier.mean_speed_rad_s:.4g}",
             "modulation_depth": f"{pilot.command.carrier.depth:.4g}",
         }
+        values["dropped_odometry_samples"] = str(pilot.dropped_samples)
         if pilot.command.pivot_shift_m is not None:
             values["pivot_shift_m"] = f"{pilot.command.pivot_shift_m:.4g}"
         if pilot.mode is Mode.GOAL:
@@ -253,6 +265,13 @@ class PilotNode(SuiteNodeBase):
             text = f"refused: {self.refusals[-1]}"
             values["refused"] = str(len(self.refusals))
             self.refusals.clear()
+        dropped = pilot.dropped_samples - self.dropped_reported
+        self.dropped_reported = pilot.dropped_samples
+        if dropped and level is Level.OK:
+            level = Level.WARN
+            text = f"{dropped} {FISH_ODOM.name} samples not finite, dropped"
+        if not pilot.feedback_valid:
+            level, text = Level.ERROR, f"{FISH_ODOM.name} not finite: carrier stopped"
         if self.odometry_lost:
             level, text = Level.ERROR, f"no {FISH_ODOM.name}: carrier stopped"
         elif self.last_odom_ns is None:

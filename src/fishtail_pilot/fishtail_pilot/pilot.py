@@ -229,6 +229,11 @@ class Pilot:
         self.position_m = (math.nan, math.nan)
         self.command = PilotCommand(CarrierSpeedProfile(0.0), None)
         self.limit_reports: dict[str, LimitReport] = {}
+        #: False from a sample with a non-finite value until the next finite one: blind, the
+        #: carrier stops (the mode, command and goal stand).
+        self.feedback_valid = True
+        #: Odometry samples dropped for a non-finite value, since start-up.
+        self.dropped_samples = 0
 
     # ------------------------------------------------------------------ commands
     def set_velocity(self, forward_m_s: float, yaw_rate_rad_s: float) -> str | None:
@@ -281,7 +286,17 @@ class Pilot:
         surge_m_s: float,
         yaw_rate_rad_s: float,
     ) -> PilotCommand:
-        """One odometry sample (pose in world, surge and yaw rate): the commands for now."""
+        """One odometry sample (pose in world, surge and yaw rate): the commands for now.
+
+        A sample with a non-finite value (a tracker's NaN) is dropped and counted
+        (``dropped_samples``): until a finite one comes, ``feedback_valid`` is False and the
+        carrier is stopped, as for lost odometry; the mode, command and goal stand.
+        """
+        if not all(map(math.isfinite, (time_s, x_m, y_m, yaw_rad, surge_m_s, yaw_rate_rad_s))):
+            self.dropped_samples += 1
+            self.feedback_valid = False
+            return PilotCommand(CarrierSpeedProfile(0.0), self.command.pivot_shift_m)
+        self.feedback_valid = True
         if self._unwrapped_heading is None:
             unwrapped = yaw_rad
         else:

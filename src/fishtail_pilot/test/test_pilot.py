@@ -159,3 +159,40 @@ def test_the_modulation_is_asked_a_motor_lag_early():
     expected = (on_time.phase_rad - on_time.mean_speed_rad_s * 0.1) % (2 * math.pi)
     assert early.phase_rad == pytest.approx(expected)
     assert (early.mean_speed_rad_s, early.depth) == (on_time.mean_speed_rad_s, on_time.depth)
+
+
+def samples(fish_pilot, start_s, end_s, yaw=0.0, speed=0.2):
+    """Odometry of a fish at the origin, heading ``yaw``, every 50 ms: the last command."""
+    command = None
+    for time_s in np.arange(start_s, end_s, 0.05):
+        command = fish_pilot.observe(float(time_s), 0.0, 0.0, yaw, speed, 0.0)
+    return command
+
+
+def test_a_nan_heading_is_dropped_counted_and_stops_the_carrier_until_good_odometry_returns():
+    fish_pilot = pilot(modulation(0.5))
+    fish_pilot.set_goal(3.0, 3.0)
+    samples(fish_pilot, 0.0, 1.0)
+    blind = fish_pilot.observe(1.0, 0.0, 0.0, math.nan, 0.2, 0.0)
+    assert blind.carrier.mean_speed_rad_s == 0.0
+    assert not fish_pilot.feedback_valid and fish_pilot.dropped_samples == 1
+    assert fish_pilot.mode is Mode.GOAL
+    command = samples(fish_pilot, 1.05, 2.0)
+    assert fish_pilot.feedback_valid and fish_pilot.dropped_samples == 1
+    assert math.isfinite(fish_pilot.mean_heading_rad)
+    # The goal lies to the left: the pilot steers left again, as it did before the NaN.
+    assert command.carrier.mean_speed_rad_s > 0.0 and command.carrier.depth > 0.0
+    assert command.carrier.phase_rad == pytest.approx(1.0)
+
+
+def test_a_nan_speed_is_dropped_and_the_speed_loop_recovers():
+    fish_pilot = pilot()
+    fish_pilot.set_velocity(0.2, 0.0)
+    before = samples(fish_pilot, 0.0, 1.0)
+    for time_s in (1.0, 1.05):
+        blind = fish_pilot.observe(time_s, 0.0, 0.0, 0.0, math.nan, 0.0)
+        assert blind.carrier.mean_speed_rad_s == 0.0
+    assert fish_pilot.dropped_samples == 2 and not fish_pilot.feedback_valid
+    after = samples(fish_pilot, 1.1, 2.0)
+    assert math.isfinite(fish_pilot.mean_speed_m_s)
+    assert after.carrier.mean_speed_rad_s == pytest.approx(before.carrier.mean_speed_rad_s)
