@@ -247,6 +247,9 @@ BAD = {
     "too_fast": "carrier_speed_rad_s,speed_m_s\n4,2.0\n8,4.0\n",
     "too_slow": "carrier_speed_rad_s,speed_m_s\n4,0.004\n",
     "not_utf8": b"carrier_speed_rad_s,speed_m_s\n4,0.2\xff\n",
+    # The model's speed rises in proportion to the carrier speed: fits it contradicts.
+    "falling": "carrier_speed_rad_s,speed_m_s\n4,0.4\n8,0.3\n12,0.2\n16,0.1\n",
+    "scattered": "carrier_speed_rad_s,speed_m_s\n4,0.2\n8,0.7\n",
 }
 
 
@@ -269,6 +272,8 @@ BAD = {
         ("too_fast", "faster than the held-body balance swims at C_D = 0"),
         ("too_slow", "slower than the held-body balance swims at C_D = 100"),
         ("not_utf8", "not UTF-8 text"),
+        ("falling", "the speeds fall as the carrier speeds up"),
+        ("scattered", "RMS speed residual 26.3 % (limit 20 %)"),
         ("/no/such.csv", "no such file"),
         ("missing_directory", "no directory"),
     ],
@@ -289,6 +294,17 @@ def test_bad_measurements_are_one_line_and_exit_2(swim_cli, tmp_path, name, word
     assert lines[0].startswith("fishtail-swim: error: ")
     assert words in lines[0]
     assert not output.exists()
+
+
+def test_force_reports_and_writes_a_contradicted_fit_with_a_warning(swim_cli, tmp_path):
+    path = tmp_path / "falling.csv"
+    path.write_text(BAD["falling"], encoding="utf-8")
+    output = tmp_path / "fish.yaml"
+    status, out, err = swim_cli("fit", path, *TOOL, "--output", output, "--force")
+    assert status == 0, err
+    assert err.count("\n") == 1 and err.startswith("fishtail-swim: warning: the model contradicts")
+    assert "RMS speed residual 67.2 % (limit 20 %)" in err and "--force" in err
+    assert "RMS speed residual 67.2 %" in out and output.exists()
 
 
 def test_help_works(swim_cli):

@@ -32,7 +32,16 @@ from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_swim.offline import animate, recorded_run, run_output
-from fishtail_swim.offline.fit import fish_file_text, fit_drag, read_measurements, write_fit_report
+from fishtail_swim.offline.fit import (
+    MAX_DRAG_RELATIVE_ERROR,
+    MAX_RELATIVE_RESIDUAL,
+    FitContradictedError,
+    check_model_agrees,
+    fish_file_text,
+    fit_drag,
+    read_measurements,
+    write_fit_report,
+)
 from fishtail_swim.offline.fit_free_body import (
     FREE_BODY_BEATS,
     FREE_BODY_STEPS_PER_BEAT,
@@ -179,6 +188,13 @@ def _add_fit_parser(
         help="write the fitted fish as a parameter file (for --fish and the simulator node)",
     )  # fmt: skip
     fit.add_argument("--csv", action="store_true", help="CSV instead of an aligned table")
+    fit.add_argument(
+        "--force", action="store_true",
+        help="report and write a fit the model contradicts (refused without it: an RMS speed "
+        f"residual over {100 * MAX_RELATIVE_RESIDUAL:g} %% or a C_D standard error over "
+        f"{100 * MAX_DRAG_RELATIVE_ERROR:g} %% of C_D; the model's speed is proportional to the "
+        "carrier speed, so the speeds must rise with it), with a warning",
+    )  # fmt: skip
     free = fit.add_argument_group("free-body runs (only with yaw rates)")
     add_parameter_options(
         free, [BEATS, dataclasses.replace(STEPS_PER_BEAT, default=FREE_BODY_STEPS_PER_BEAT)]
@@ -421,7 +437,8 @@ def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
 
     Raises:
         MeasurementError: an unusable measurements file.
-        FitRefusedError: no parameters in range reproduce the measurements.
+        FitRefusedError: no parameters in range reproduce the measurements, or (without
+            --force) the model contradicts them (:func:`~.fit.check_model_agrees`).
         UsageError: an output that cannot be written; and the errors of
             :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
     """
@@ -435,10 +452,17 @@ def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
     else:
         settings = RunSettings(arguments.beats, arguments.steps_per_beat)
         result = fit_drag_and_yaw_damping(swimmer, measurements, settings)
+    warnings = list(result.warnings)
+    try:
+        check_model_agrees(result, measurements)
+    except FitContradictedError as error:
+        if not arguments.force:
+            raise
+        warnings.append(f"{error.reason} (reported and written: --force)")
     write_fit_report(result, measurements, out, arguments.csv)
     # CSV output stays parseable: the notes go to stderr.
     notes = sys.stderr if arguments.csv else out
-    for warning in result.warnings:
+    for warning in warnings:
         print(f"{PROGRAM}: warning: {warning}", file=sys.stderr)
     if output is not None:
         try:

@@ -42,6 +42,11 @@ DRAG = "drag_coefficient"
 YAW_DAMPING = "yaw_damping_kg_m2"
 # Relative step of the central difference dC_D/ds (error ~ step², far below the spread's).
 _SLOPE_STEP = 1e-4
+#: A fit the model contradicts: its cruising speed is the carrier speed times s(C_D), so the
+#: measured U/phi-dot must agree. An RMS relative speed residual above this (a timed run's errors
+#: are a few %), or a C_D standard error above MAX_DRAG_RELATIVE_ERROR of C_D, is refused.
+MAX_RELATIVE_RESIDUAL = 0.2
+MAX_DRAG_RELATIVE_ERROR = 0.5
 
 
 class MeasurementError(SwimError):
@@ -50,6 +55,18 @@ class MeasurementError(SwimError):
 
 class FitRefusedError(SwimError):
     """No parameter value inside its range reproduces the measurements."""
+
+
+class FitContradictedError(FitRefusedError):
+    """The model contradicts the measurements: its fit leaves them unexplained.
+
+    ``reason`` is the message without the hint to --force (for the warning --force gives).
+    """
+
+    def __init__(self, reason: str) -> None:
+        """The error for ``reason``, its message with the hint to --force."""
+        super().__init__(f"{reason} (--force reports and writes the fit anyway)")
+        self.reason = reason
 
 
 class Measurements(NamedTuple):
@@ -274,6 +291,43 @@ def fit_drag(swimmer: Swimmer, measurements: Measurements) -> FitResult:
         "cycle-average balance, sway and yaw held (yaw rates give the free body's C_D and K_D)",
         balance.row_drag_coefficient,
     )  # fmt: skip
+
+
+def check_model_agrees(result: FitResult, measurements: Measurements) -> None:
+    """Refuse a fit the model contradicts (MAX_RELATIVE_RESIDUAL, MAX_DRAG_RELATIVE_ERROR).
+
+    The model's cruising speed is proportional to the carrier speed (quadratic drag), so the
+    speeds must rise with it; speeds that fall, or scatter far beyond a timed run's errors, leave
+    a C_D that describes none of the rows.
+
+    Raises:
+        FitContradictedError: the RMS relative speed residual or C_D's relative standard error
+            above its limit (the message says which, and whether the speeds fall).
+    """
+    carriers, speeds = measurements.carrier_speed_rad_s, measurements.speed_m_s
+    residual = _rms(result.model_speed_m_s / speeds - 1.0)
+    drag = next(value for value in result.fitted if value.name == DRAG)
+    error = drag.standard_error / drag.value  # NaN with one row: no spread, no refusal
+    over = []
+    if residual > MAX_RELATIVE_RESIDUAL:
+        over.append(
+            f"RMS speed residual {100.0 * residual:.3g} % (limit {100 * MAX_RELATIVE_RESIDUAL:g} %)"
+        )
+    if error > MAX_DRAG_RELATIVE_ERROR:
+        over.append(
+            f"C_D = {drag.value:.4g} +- {drag.standard_error:.2g}, a standard error of "
+            f"{100.0 * error:.3g} % (limit {100 * MAX_DRAG_RELATIVE_ERROR:g} %)"
+        )
+    if not over:
+        return
+    how = "scatter far from"
+    if np.ptp(carriers) > 0.0 and np.polyfit(np.log(carriers), np.log(speeds), 1)[0] <= 0.0:
+        how = "fall as the carrier speeds up, against"
+    raise FitContradictedError(
+        f"the model contradicts the measurements: {' and '.join(over)}; the speeds {how} the "
+        "model's cruising speed, proportional to the carrier speed: check the carrier speeds, "
+        "the rows and their units"
+    )
 
 
 def _yaml_float(value: float) -> str:
