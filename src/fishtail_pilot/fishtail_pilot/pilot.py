@@ -246,8 +246,10 @@ class Pilot:
                 "(achievable: 0 and above)"
             )
         if self.mode is not Mode.VELOCITY:
-            self._heading_reference = None
             self._integral_rad_s = 0.0
+        if self.mode is not Mode.VELOCITY or yaw_rate_rad_s != self.yaw_rate_command_rad_s:
+            # A new turn starts from the heading the fish has, owing nothing from the last one.
+            self._heading_reference = None
         self.mode = Mode.VELOCITY
         self.goal = None
         self.speed_command_m_s = forward_m_s
@@ -436,17 +438,40 @@ class Pilot:
         profile = CarrierSpeedProfile(mean_speed, depth, phase % TWO_PI)
         return PilotCommand(profile, steering.pivot_shift_m)
 
+    @property
+    def heading_reference_rad(self) -> float:
+        """The heading the pilot steers towards, unwrapped as the beat mean (NaN: none yet)."""
+        return math.nan if self._heading_reference is None else self._heading_reference
+
+    def max_heading_lead_rad(self) -> float:
+        """How far the reference may run ahead of the beat-mean heading following cmd_vel.
+
+        Half the strongest turn a beat (the beat mean is half a beat old in a steady turn) plus
+        the error at which the heading gain alone asks for the strongest turn: more would only
+        be a debt of turning to pay after the command ends.
+        """
+        low, high = self.steering.yaw_per_beat_range_rad
+        reach = max(abs(low), abs(high))
+        gain = self.settings.heading_gain_per_beat
+        return 0.5 * reach + (reach / gain if gain > 0.0 else 0.0)
+
     def _advance_reference(self, dt: float) -> None:
         if self._heading_reference is None:
             if not math.isfinite(self.mean_heading_rad):
                 return
             self._heading_reference = self.mean_heading_rad
-        self._heading_reference += self.yaw_rate_command_rad_s * dt
-        # A reference the fish cannot follow is held within a quarter turn of the heading, so
-        # the loop does not wind up a debt of whole turns while the command is beyond reach.
-        lag = self._heading_reference - self.mean_heading_rad
-        if abs(lag) > 0.5 * math.pi:
-            self._heading_reference = self.mean_heading_rad + math.copysign(0.5 * math.pi, lag)
+        # The reference turns at the commanded rate as far as the steering can turn the fish at
+        # the beat frequency it is driven at (none while the carrier is stopped), ...
+        low, high = self.steering.yaw_per_beat_range_rad
+        beat_hz = max(self.command.carrier.mean_speed_rad_s, 0.0) / TWO_PI
+        rate = min(max(self.yaw_rate_command_rad_s, low * beat_hz), high * beat_hz)
+        self._heading_reference += rate * dt
+        # ... and stays within a saturating lead of the heading, so that the loop does not wind
+        # up a debt of turning while the fish is held back.
+        lead = self._heading_reference - self.mean_heading_rad
+        bound = self.max_heading_lead_rad()
+        if abs(lead) > bound:
+            self._heading_reference = self.mean_heading_rad + math.copysign(bound, lead)
 
     def min_turning_radius_m(self, direction: float) -> float:
         """The tightest circle the steering gives turning towards ``direction``'s sign (m)."""

@@ -196,3 +196,32 @@ def test_a_nan_speed_is_dropped_and_the_speed_loop_recovers():
     after = samples(fish_pilot, 1.1, 2.0)
     assert math.isfinite(fish_pilot.mean_speed_m_s)
     assert after.carrier.mean_speed_rad_s == pytest.approx(before.carrier.mean_speed_rad_s)
+
+
+def test_an_unreachable_turn_leaves_no_extra_turn_for_the_straight_command_after_it():
+    fish_pilot = pilot()
+    fish_pilot.set_velocity(0.3, 1e6)
+    samples(fish_pilot, 0.0, 3.0, speed=0.3)  # the fish cannot turn that fast: it swims straight
+    fish_pilot.set_velocity(0.3, 0.0)
+    command = samples(fish_pilot, 3.0, 3.2, speed=0.3)
+    assert command.carrier.depth == 0.0  # straight on, no debt of heading to make up
+
+
+def test_a_turn_asked_with_the_carrier_stopped_leaves_no_extra_turn_after_it():
+    fish_pilot = pilot()
+    fish_pilot.set_velocity(0.0, 0.4)
+    samples(fish_pilot, 0.0, 3.0, speed=0.0)
+    fish_pilot.set_velocity(0.3, 0.0)
+    command = samples(fish_pilot, 3.0, 3.2, speed=0.3)
+    assert command.carrier.depth == 0.0
+
+
+def test_the_heading_reference_of_a_repeated_unreachable_turn_stays_within_a_saturating_lead():
+    fish_pilot = pilot(modulation(0.5), heading_gain_per_beat=3.0)
+    for time_s in np.arange(0.0, 3.0, 0.05):
+        fish_pilot.set_velocity(0.3, 1e6)  # cmd_vel repeated at 20 Hz
+        fish_pilot.observe(float(time_s), 0.0, 0.0, 0.0, 0.3, 0.0)
+    lead = fish_pilot.heading_reference_rad - fish_pilot.mean_heading_rad
+    # At most half the strongest turn a beat (the beat mean's lag) plus what saturates the
+    # steering through the heading gain: 0.5 * 0.5 + 0.5 / 3 rad, not the quarter turn of before.
+    assert 0.0 < lead <= 0.5 * 0.5 + 0.5 / 3.0 + 1e-12
