@@ -8,10 +8,13 @@ speed) and cmd_vel, and records what the pilot commands on motor/cmd_profile and
 from __future__ import annotations
 
 import math
+import time
 
 import pytest
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+from rcl_interfaces.srv import SetParameters
 
 from fishtail_common.interface import CMD_VEL, FISH_ODOM, MOTOR_CMD_PROFILE, Level
 from fishtail_common.ros import qos_profile
@@ -168,3 +171,67 @@ def test_odometry_that_is_not_finite_stops_the_carrier_with_an_error_until_it_is
     )
     moving = [p for p in profiles if p.mean_speed > 0.0][-1]
     assert math.isfinite(moving.mean_speed) and moving.modulation_depth < 0.1
+
+
+def set_parameters(ros, **values: float) -> list:
+    """Set the pilot's parameters as `ros2 param set` does: the results, one per parameter."""
+    request = SetParameters.Request(
+        parameters=[
+            Parameter(
+                name=name,
+                value=ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value),
+            )
+            for name, value in values.items()
+        ]
+    )
+    return list(ros.call(SetParameters, "/pilot/set_parameters", request).results)
+
+
+def first_stop_ns(profiles, after: int) -> int:
+    """When the first stopped profile after message ``after`` arrived."""
+    return next(
+        profiles.receive_ns[index]
+        for index in range(after, len(profiles))
+        if profiles[index].mean_speed == 0.0
+    )
+
+
+def test_timeouts_and_the_control_rate_set_at_run_time_are_in_force_and_gains_read_only(
+    start_node, ros
+):
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    start_pilot(start_node, ros, cmd_timeout_sec=0.5)
+    fish = FakeFish(ros, 0.3)
+    results = set_parameters(ros, cmd_timeout_sec=4.0, control_rate_hz=5.0)
+    assert all(result.successful for result in results), results
+    (refused,) = set_parameters(ros, speed_gain=1.0)
+    assert not refused.successful  # the law's gains are fixed for the run
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    ros.wait_for_subscribers(FISH_ODOM.name, 1, TIMEOUT_S)
+    # cmd_timeout_sec: one cmd_vel keeps the carrier going for 4 s, not 0.5 s.
+    sent_ns = time.time_ns()
+    commands.publish(twist(0.3, 0.0))
+    ros.spin_until(lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "moving")
+    start = next(index for index, p in enumerate(profiles) if p.mean_speed > 0.0)
+    ros.spin_until(
+        lambda: any(p.mean_speed == 0.0 for p in profiles[start:]), TIMEOUT_S, "the stop"
+    )
+    stopped_ns = first_stop_ns(profiles, start)
+    assert 3.5 < (stopped_ns - sent_ns) * 1e-9 < 6.0
+    # control_rate_hz: 5 profiles a second while moving, not 20.
+    moving_s = (stopped_ns - profiles.receive_ns[start]) * 1e-9
+    rate_hz = sum(1 for p in profiles[start:] if p.mean_speed > 0.0) / moving_s
+    assert 3.0 < rate_hz < 8.0
+    # odom_timeout_sec: 3 s without odometry before the carrier stops, not 1 s.
+    results = set_parameters(ros, cmd_timeout_sec=0.0, odom_timeout_sec=3.0)
+    assert all(result.successful for result in results), results
+    count = len(profiles)
+    commands.publish(twist(0.3, 0.0))
+    ros.spin_until(lambda: any(p.mean_speed > 0.0 for p in profiles[count:]), TIMEOUT_S, "moving")
+    count = len(profiles)
+    fish.running = False
+    blind_ns = time.time_ns()
+    ros.spin_until(
+        lambda: any(p.mean_speed == 0.0 for p in profiles[count:]), TIMEOUT_S, "the stop"
+    )
+    assert 2.5 < (first_stop_ns(profiles, count) - blind_ns) * 1e-9 < 5.0

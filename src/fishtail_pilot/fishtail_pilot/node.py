@@ -16,6 +16,8 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
 
 from fishtail_common.interface import (
@@ -29,7 +31,7 @@ from fishtail_common.interface import (
     Level,
     Status,
 )
-from fishtail_common.parameters import ParameterSpec, read_only
+from fishtail_common.parameters import ParameterSpec, ParameterValueError, read_only
 from fishtail_common.ros import (
     NodeFactory,
     SuiteNodeBase,
@@ -62,13 +64,17 @@ CONTROL_RATE = ParameterSpec(
 )
 
 
-#: Every parameter of the node; the fish, the tail and the steering are fixed for its run.
+#: Set at run time, these take effect at once: each is a number the node reads on every tick or
+#: send, and retuning a timeout or the command rate on a running fish is ordinary operation.
+LIVE_PARAMETERS: tuple[ParameterSpec, ...] = (CMD_TIMEOUT, ODOM_TIMEOUT, CONTROL_RATE)
+
+#: Every parameter of the node. The fish, the tail and the steering are fixed for its run (the
+#: steering map is built from them at start-up), and so are the gains and limits (the law's
+#: frozen PilotSettings); ROS refuses to set a read-only one.
 PARAMETERS: tuple[ParameterSpec, ...] = (
     *read_only((*TAIL_PARAMETERS, *FISH_PARAMETERS, *STEERING_PARAMETERS)),
     *read_only(CONTROL_PARAMETERS),
-    CMD_TIMEOUT,
-    ODOM_TIMEOUT,
-    CONTROL_RATE,
+    *LIVE_PARAMETERS,
 )
 
 
@@ -87,9 +93,11 @@ class PilotNode(SuiteNodeBase):
             **{spec.name: float(values[spec.name]) for spec in CONTROL_PARAMETERS},
         )
         self.pilot = Pilot(settings, steering)
-        self.cmd_timeout_ns = round(float(values[CMD_TIMEOUT.name]) * 1e9)
-        self.odom_timeout_ns = round(float(values[ODOM_TIMEOUT.name]) * 1e9)
-        self.control_period_ns = round(1e9 / float(values[CONTROL_RATE.name]))
+        self.cmd_timeout_ns = 0
+        self.odom_timeout_ns = 0
+        self.control_period_ns = 0
+        for spec in LIVE_PARAMETERS:
+            self._apply(spec.name, float(values[spec.name]))
         self.last_cmd_ns: int | None = None
         self.last_odom_ns: int | None = None
         self.last_sent_ns: int | None = None
@@ -115,6 +123,7 @@ class PilotNode(SuiteNodeBase):
         self.create_subscription(PoseStamped, GOAL_POSE.name, self._on_goal, qos_profile(GOAL_POSE))
         self.create_subscription(Odometry, FISH_ODOM.name, self._on_odom, qos_profile(FISH_ODOM))
         self.create_timer(0.05, self._on_watchdog)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         low, high = steering.yaw_per_beat_range_rad
         self.get_logger().info(
@@ -123,6 +132,33 @@ class PilotNode(SuiteNodeBase):
             f"{self.pilot.min_turning_radius_m(1.0):.3g} m left, "
             f"{self.pilot.min_turning_radius_m(-1.0):.3g} m right)"
         )
+
+    def _apply(self, name: str, value: float) -> None:
+        """Put a live parameter's value in force."""
+        if name == CMD_TIMEOUT.name:
+            self.cmd_timeout_ns = round(value * 1e9)
+        elif name == ODOM_TIMEOUT.name:
+            self.odom_timeout_ns = round(value * 1e9)
+        elif name == CONTROL_RATE.name:
+            self.control_period_ns = round(1e9 / value)
+
+    def _on_set_parameters(self, parameters: list[Parameter]) -> SetParametersResult:
+        # Read-only parameters and ranges are refused by the descriptors before this runs; the
+        # specs check again, so that a value is applied only if every one in the call is valid.
+        specs = {spec.name: spec for spec in LIVE_PARAMETERS}
+        checked = []
+        for parameter in parameters:
+            spec = specs.get(parameter.name)
+            if spec is None:
+                continue  # not a live one (use_sim_time ...)
+            try:
+                checked.append((parameter.name, float(spec.check(parameter.value))))
+            except ParameterValueError as error:
+                return SetParametersResult(successful=False, reason=str(error))
+        for name, value in checked:
+            self._apply(name, value)
+            self.get_logger().info(f"{name} = {value:g}: in force now")
+        return SetParametersResult(successful=True)
 
     def _now_ns(self) -> int:
         return int(self.get_clock().now().nanoseconds)
