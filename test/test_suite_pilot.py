@@ -235,3 +235,24 @@ def test_timeouts_and_the_control_rate_set_at_run_time_are_in_force_and_gains_re
         lambda: any(p.mean_speed == 0.0 for p in profiles[count:]), TIMEOUT_S, "the stop"
     )
     assert 2.5 < (first_stop_ns(profiles, count) - blind_ns) * 1e-9 < 5.0
+
+
+def test_an_idle_pilot_sends_one_stop_then_nothing_beside_manual_commands(start_node, ros):
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    start_pilot(start_node, ros, cmd_timeout_sec=0.5)
+    fish = FakeFish(ros, 0.3)
+    manual = ros.command_speed(4.0)  # motor/cmd_speed at 10 Hz, someone driving by hand
+    ros.wait_for_subscribers(FISH_ODOM.name, 1, TIMEOUT_S)
+    ros.spin_for(2.0)
+    assert len(profiles) == 0  # idle from the start, odometry coming: it has nothing to stop
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands.publish(twist(0.3, 0.0))
+    ros.spin_until(
+        lambda: any(p.mean_speed == 0.0 for p in profiles), TIMEOUT_S, "the watchdog's stop"
+    )
+    count = len(profiles)
+    ros.spin_for(2.0)
+    assert len(profiles) == count  # one stop, then silence
+    assert sum(1 for p in profiles if p.mean_speed == 0.0) == 1
+    manual.speed = None
+    fish.running = False

@@ -101,7 +101,9 @@ class PilotNode(SuiteNodeBase):
         self.last_cmd_ns: int | None = None
         self.last_odom_ns: int | None = None
         self.last_sent_ns: int | None = None
-        self.sent: PilotCommand | None = None
+        # The carrier is taken as stopped at start-up: an idle pilot sends nothing until it has
+        # something to move (manual commands beside it stay in charge).
+        self.sent: PilotCommand = self.pilot.command
         self.refusals: list[str] = []
         self.odometry_lost = False
         self.dropped_reported = 0
@@ -225,11 +227,17 @@ class PilotNode(SuiteNodeBase):
         self._send(command, now_ns)
 
     def _send(self, command: PilotCommand, now_ns: int, force: bool = False) -> None:
-        due = self.last_sent_ns is None or now_ns - self.last_sent_ns >= self.control_period_ns
-        # A new stop goes out at once; anything else at the control rate.
-        stopping = command.carrier.mean_speed_rad_s == 0.0 and command != self.sent
-        if not (force or due or stopping):
-            return
+        """Publish ``command``: a moving one at the control rate, a stop once, then silence."""
+        stop = command.carrier.mean_speed_rad_s == 0.0
+        if stop and not force:
+            # A new stop goes out at once, a stop already sent never again: idle, the pilot
+            # leaves the motor to whoever else commands it (the driver's watchdog stops it).
+            if command == self.sent:
+                return
+        elif not force:
+            due = self.last_sent_ns is None or now_ns - self.last_sent_ns >= self.control_period_ns
+            if not due:
+                return
         profile = command.carrier
         message = self.profile_message
         message.mean_speed = profile.mean_speed_rad_s
