@@ -14,13 +14,14 @@ from fishtail_plant.fish.fish import FishParameters
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
 from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_plant.motor.dc_motor import DcMotorParameters
-from fishtail_swim.offline.full_duty_run import run_at_full_duty
+from fishtail_swim.offline.full_duty_run import RunLimits, run_at_full_duty
 from fishtail_swim.offline.motor_load_table import motor_load_rows
 from fishtail_swim.offline.motor_sizing import (
     OK,
     OVER_THE_STALL,
     OVER_THE_SUPPLY,
     LoadSamples,
+    UnsettledRunError,
     quasi_static_limits,
     quasi_static_rows,
     sample_load,
@@ -313,3 +314,41 @@ def test_bad_motor_options_are_one_line_and_status_2(swim_cli, tmp_path, argumen
     assert len(err.strip().splitlines()) == 1
     assert err.startswith("fishtail-swim: error: ")
     assert words in err
+
+
+@pytest.mark.parametrize(
+    ("arguments", "words"),
+    [
+        # Outside a small fish motor's ranges: refused at once (was a verdict after about 60 s).
+        (("--supply-voltage-v", "1e9"), "--supply-voltage-v = 1000000000.0 is outside [1.0, 60.0]"),
+        (("--stall-torque-n-m", "1e30", "--no-load-speed-rpm", "100"),
+         "--stall-torque-n-m = 1e+30 is outside [0.001, 100.0] N m"),
+        (("--resistance-ohm", "1e-12"), "--resistance-ohm = 1e-12 is outside [0.01, 1000.0] ohm"),
+        (("--no-load-speed-rad-s", "1e4", "--stall-torque-n-m", "1"), "is outside [0.5, 1000.0]"),
+        (("--supply-voltage-v", "1", "--stall-torque-n-m", "1", "--no-load-speed-rad-s", "1000"),
+         "the datasheet figures (with the supply and the gearbox) give --resistance-ohm = 0.00076"),
+        # In range, but a step far too short for the revolutions: refused before the run.
+        (("--rotor-inertia-kg-m2", "1e-10", "--resistance-ohm", "0.01",
+          "--torque-constant-n-m-a", "1"), "would need about 6.28e+14 steps to settle"),
+    ],
+)  # fmt: skip
+def test_absurd_motors_are_refused_in_one_line_without_a_figure(
+    swim_cli, tmp_path, arguments, words
+):
+    figure = tmp_path / "figure.png"
+    status, out, err = swim_cli("motor", "--fish", FISH, "--figure", figure, *arguments)
+    assert status == 2
+    assert out == ""
+    assert len(err.strip().splitlines()) == 1, err
+    assert err.startswith("fishtail-swim: error: ")
+    assert words in err
+    assert not figure.exists()
+
+
+def test_a_run_that_does_not_settle_gives_no_verdict():
+    load = tail_load("oscillatory", "water_swimming")
+    # Three revolutions cannot settle (the test needs four); too few steps for four revolutions.
+    with pytest.raises(UnsettledRunError, match="did not settle: 3 revolutions"):
+        size_motor(DcMotorParameters(), load, limits=RunLimits(max_revolutions=3))
+    with pytest.raises(UnsettledRunError, match="would need about 1.0[0-9]e\\+03 steps"):
+        size_motor(DcMotorParameters(), load, limits=RunLimits(max_steps=500))

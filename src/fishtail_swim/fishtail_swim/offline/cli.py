@@ -48,6 +48,7 @@ from fishtail_swim.offline.fit_free_body import (
     RunSettings,
     fit_drag_and_yaw_damping,
 )
+from fishtail_swim.offline.full_duty_run import DEFAULT_RUN_LIMITS
 from fishtail_swim.offline.inputs import (
     PROGRAM,
     link_inertia_from_arguments,
@@ -209,7 +210,9 @@ def _add_motor_parser(
         help="size a DC gear motor for the tail: torque, current, voltage and power at each beat "
         "frequency, the highest beat frequency at full duty, a torque-speed figure",
         description="A motor too weak for the tail is an answer, not an error: its verdict says "
-        "so and the exit status is 0; bad options end with one line and status 2.",
+        "so and the exit status is 0; bad options (and values outside a small fish motor's "
+        "ranges, shown below) end with one line and status 2, as does a full-duty run that "
+        f"cannot settle within {DEFAULT_RUN_LIMITS.max_steps} steps (no verdict).",
     )  # fmt: skip
     add_motor_arguments(motor)
 
@@ -476,8 +479,10 @@ def run_motor(arguments: argparse.Namespace, out: TextIO) -> None:
     """Print the motor's sizing for the tail (and draw its torque-speed figure).
 
     Raises:
-        UsageError: a bad motor option or a figure that cannot be written; and the errors of
+        UsageError: a bad motor option (or one outside its range) or a figure that cannot be
+            written; and the errors of
             :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
+        UnsettledRunError: a full-duty run that cannot settle within its limits (no verdict).
     """
     parameters = motor_parameters_from_arguments(arguments)
     swimmer = swimmer_from_arguments(arguments)

@@ -20,26 +20,44 @@ from fishtail_common.command_line import (
     add_parameter_flags,
     finite_number,
     flag_name,
+    parameter_help,
     value_list,
 )
-from fishtail_common.parameters import ParameterSpec
+from fishtail_common.parameters import ParameterSpec, ParameterValueError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
 from fishtail_plant.motor.dc_motor import DcMotorParameters
 from fishtail_swim.offline.motor_sizing import DEFAULT_FREQUENCIES_HZ
 from fishtail_swim.offline.options import MAX_VALUES
 
-#: Options named after DcMotorParameters' fields: what they are, and their unit.
+#: Options named after DcMotorParameters' fields: what they are, their unit, and the range of a
+#: small fish's DC gear motor (checked after DcMotorParameters' own checks, on the motor the
+#: options give, so also on the resistance and torque constant the datasheet figures give). The
+#: ranges span small gear motors with a wide margin, and keep the full-duty run's step (0.1 of the
+#: mechanical time constant) and the quasi-static figures physical: a supply within the 60 V of
+#: extra-low voltage; up to the largest gearhead reductions; a winding from a large 12 V motor's
+#: 0.01 ohm to a micro motor's 1000; k from 1e-4 (a tiny fast motor) to 1 N m/A; a rotor from a
+#: micro motor's 1e-10 kg m^2 to a flywheel's 1e-2. Docs: docs/motor-load.md ("Choosing a motor").
 _FIELDS = {
-    "supply_voltage_v": ("supply voltage, the armature's at PWM 255", "V"),
-    "gear_ratio": ("motor turns per carrier turn", ""),
-    "gearbox_efficiency": ("gearbox efficiency, (0, 1]", ""),
-    "resistance_ohm": ("armature resistance", "ohm"),
-    "torque_constant_n_m_a": ("torque constant = back-EMF constant", "N m/A"),
-    "rotor_inertia_kg_m2": ("rotor inertia at the motor shaft", "kg m^2"),
-    "viscous_friction_n_m_s": ("viscous friction at the motor shaft", "N m s/rad"),
-    "coulomb_friction_n_m": ("Coulomb (and breakaway) friction at the motor shaft", "N m"),
+    "supply_voltage_v": ("supply voltage, the armature's at PWM 255", "V", 1.0, 60.0),
+    "gear_ratio": ("motor turns per carrier turn", "", 1.0, 10_000.0),
+    "gearbox_efficiency": ("gearbox efficiency, (0, 1]", "", 0.01, 1.0),
+    "resistance_ohm": ("armature resistance", "ohm", 0.01, 1000.0),
+    "torque_constant_n_m_a": ("torque constant = back-EMF constant", "N m/A", 1e-4, 1.0),
+    "rotor_inertia_kg_m2": ("rotor inertia at the motor shaft", "kg m^2", 1e-10, 1e-2),
+    "viscous_friction_n_m_s": ("viscous friction at the motor shaft", "N m s/rad", 0.0, 1e-2),
+    "coulomb_friction_n_m": ("Coulomb (breakaway) friction at the motor shaft", "N m", 0.0, 1.0),
 }
+#: The datasheet figures at the carrier: a small fish's tail needs about 0.01 to 1 N m at 0.5 to
+#: 5 Hz, 3 to 31 rad/s (docs/motor-load.md); these ranges hold any gear motor that could turn it
+#: with a wide margin (a hundred times the torque, thirty times the speed).
+STALL_TORQUE = ParameterSpec(
+    "stall_torque_n_m", 1.0, "stall torque at the gearbox output", "N m", 1e-3, 100.0
+)
+_NO_LOAD_RAD_S = (0.5, 1000.0)
+NO_LOAD_SPEED = ParameterSpec(
+    "no_load_speed_rad_s", 30.0, "no-load speed of the gearbox output", "rad/s", *_NO_LOAD_RAD_S
+)
 #: Set by the electrical constants; derived from the datasheet figures otherwise.
 _ELECTRICAL = ("resistance_ohm", "torque_constant_n_m_a")
 _RPM = 2.0 * math.pi / 60.0
@@ -55,7 +73,26 @@ def _defaults() -> dict[str, float]:
 def _motor_specs() -> list[ParameterSpec]:
     """The motor's options as specs, their defaults DcMotorParameters' (which checks them)."""
     defaults = _defaults()
-    return [ParameterSpec(name, defaults[name], *_FIELDS[name]) for name in _FIELDS]
+    return [
+        ParameterSpec(name, defaults[name], text, unit, low, high)
+        for name, (text, unit, low, high) in _FIELDS.items()
+    ]
+
+
+def _check_ranges(parameters: DcMotorParameters, derived: str = "") -> DcMotorParameters:
+    """``parameters`` if every field the options set is within its spec's range.
+
+    Raises:
+        ParameterValueError: a field outside its range (``derived`` says where it came from).
+    """
+    for spec in _motor_specs():
+        try:
+            spec.check(getattr(parameters, spec.name))
+        except ParameterValueError as error:
+            if derived and spec.name in _ELECTRICAL:
+                raise ParameterValueError(f"{derived} give {error}") from None
+            raise
+    return parameters
 
 
 def _frequency_list(text: str) -> FloatArray:
@@ -106,16 +143,17 @@ def add_motor_arguments(parser: argparse.ArgumentParser) -> None:
     )
     datasheet.add_argument(
         "--stall-torque-n-m", type=finite_number, metavar="N_M",
-        help="stall torque at the gearbox output [N m]",
+        help=parameter_help(STALL_TORQUE, with_default=False),
     )  # fmt: skip
     speed = datasheet.add_mutually_exclusive_group()
     speed.add_argument(
         "--no-load-speed-rad-s", type=finite_number, metavar="RAD/S",
-        help="no-load speed of the gearbox output [rad/s]",
+        help=parameter_help(NO_LOAD_SPEED, with_default=False),
     )  # fmt: skip
     speed.add_argument(
         "--no-load-speed-rpm", type=finite_number, metavar="RPM",
-        help="no-load speed of the gearbox output [rpm]",
+        help=f"no-load speed of the gearbox output [rpm] ({_NO_LOAD_RAD_S[0] / _RPM:.3g} to "
+        f"{_NO_LOAD_RAD_S[1] / _RPM:.3g})",
     )  # fmt: skip
 
 
@@ -140,7 +178,7 @@ def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorPar
     datasheet = stall is not None or no_load is not None
     try:
         if not datasheet:
-            return DcMotorParameters(**given)
+            return _check_ranges(DcMotorParameters(**given))
         if stall is None or no_load is None:
             raise UsageError(
                 "give both --stall-torque-n-m and --no-load-speed-rad-s (or -rpm), or neither"
@@ -153,7 +191,7 @@ def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorPar
             )
         defaults = _defaults()
         voltage = given.pop("supply_voltage_v", defaults["supply_voltage_v"])
-        return DcMotorParameters.from_stall_and_no_load(
+        motor = DcMotorParameters.from_stall_and_no_load(
             supply_voltage_v=voltage,
             stall_torque_n_m=stall,
             no_load_speed_rad_s=no_load,
@@ -161,5 +199,8 @@ def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorPar
             gearbox_efficiency=given.pop("gearbox_efficiency", defaults["gearbox_efficiency"]),
             **given,
         )
+        STALL_TORQUE.check(stall)
+        NO_LOAD_SPEED.check(no_load)
+        return _check_ranges(motor, "the datasheet figures (with the supply and the gearbox)")
     except ValueError as error:
         raise UsageError(_with_options(str(error))) from None

@@ -23,6 +23,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_plant.motor.dc_motor import DcMotorParameters
@@ -40,6 +41,14 @@ DEFAULT_FREQUENCIES_HZ = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
 #: it does not; the peak load is beyond the motor's stall torque at the carrier (which no duty at
 #: this supply gives at any speed).
 OK, OVER_THE_SUPPLY, OVER_THE_STALL = "ok", "over the supply", "over the stall"
+
+
+#: Revolutions the full-duty run needs at least before it can count as settled.
+_SETTLING_REVOLUTIONS = 4
+
+
+class UnsettledRunError(SwimError):
+    """The full-duty run cannot settle within its limits: no verdict is given."""
 
 
 class LoadSamples(NamedTuple):
@@ -184,12 +193,26 @@ def size_motor(
     limits: RunLimits = DEFAULT_RUN_LIMITS,
     progress: Callable[[float], None] | None = None,
 ) -> MotorSizing:
-    """The table, both quasi-static limits, the full-duty run and the verdict for ``load``."""
+    """The table, both quasi-static limits, the full-duty run and the verdict for ``load``.
+
+    Raises:
+        UnsettledRunError: a run that would need more than ``limits.max_steps`` steps to settle
+            (said before running, from the on-the-mean speed and the motor's step), or that
+            reached a limit of ``limits`` without settling, turning or stopping.
+    """
     samples = sample_load(load)
     rows = quasi_static_rows(parameters, samples, frequencies_hz)
     quasi_static = quasi_static_limits(parameters, samples)
     start = quasi_static.mean_rad_s if math.isfinite(quasi_static.mean_rad_s) else 0.0
+    _check_run_length(parameters, start, limits)
     run = run_at_full_duty(parameters, load.torque, load.inertia, start, limits, progress)
+    if run.started and run.stopped_at_rad is None and not run.settled:
+        raise UnsettledRunError(
+            f"the full-duty run did not settle: {run.revolutions} revolutions in "
+            f"{run.simulated_s:.4g} s simulated, steps of {parameters.step_s:.3g} s, reached its "
+            f"limit ({limits.max_steps} steps, {limits.max_revolutions} revolutions or "
+            f"{limits.max_simulated_s:g} s): no verdict; check the motor's figures"
+        )
     angles = np.arange(samples.inertia_kg_m2.size) * (2.0 * math.pi / samples.inertia_kg_m2.size)
     at_rest = max(abs(load.torque(float(angle), 0.0)) for angle in angles)
     slowest = float(np.min(rows.beat_frequency_hz))
@@ -197,6 +220,26 @@ def size_motor(
         parameters, samples, rows, quasi_static, run, at_rest,
         verdict(parameters, run, slowest, at_rest),
     )  # fmt: skip
+
+
+def _check_run_length(parameters: DcMotorParameters, speed_rad_s: float, limits: RunLimits) -> None:
+    """Refuse a run whose settling would take more steps than the limit, before running it.
+
+    Raises:
+        UnsettledRunError: _SETTLING_REVOLUTIONS revolutions at ``speed_rad_s`` (the on-the-mean
+            speed) over ``limits.max_steps`` steps of the motor's step.
+    """
+    if speed_rad_s <= 0.0:  # the run finds out at once whether it starts
+        return
+    step = parameters.step_s
+    needed = _SETTLING_REVOLUTIONS * 2.0 * math.pi / speed_rad_s / step
+    if needed > limits.max_steps:
+        raise UnsettledRunError(
+            f"the full-duty run would need about {needed:.3g} steps to settle, over its limit of "
+            f"{limits.max_steps}: the motor's step is {step:.3g} s (0.1 of its mechanical time "
+            f"constant, rotor inertia R / k^2) and a revolution at {speed_rad_s:.3g} rad/s takes "
+            f"{2.0 * math.pi / speed_rad_s:.3g} s; check the motor's figures"
+        )
 
 
 def verdict(
