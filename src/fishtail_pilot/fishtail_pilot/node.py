@@ -50,6 +50,8 @@ from fishtail_plant.fish.fish import FISH_PARAMETERS
 from fishtail_plant.values import TAIL_PARAMETERS, fish_from_values, tail_from_values
 
 DIAGNOSTICS_PERIOD_S = 1.0
+#: At most one "goal ... m to go" line this often (s).
+GOAL_LOG_PERIOD_S = 2.0
 STOPPED = CarrierSpeedProfile(0.0)
 CMD_TIMEOUT = ParameterSpec(
     "cmd_timeout_sec", 0.5,
@@ -186,9 +188,12 @@ class PilotNode(SuiteNodeBase):
         if reason is not None:
             self._refuse(reason)
             return
+        # Throttled: a burst of goals (a script, a stuck button) does not flood the log; the
+        # latest goal is always on /diagnostics.
         self.get_logger().info(
             f"goal ({position.x:.3f}, {position.y:.3f}) m: "
-            f"{self.pilot.distance_to_goal_m():.3f} m to go"
+            f"{self.pilot.distance_to_goal_m():.3f} m to go",
+            throttle_duration_sec=GOAL_LOG_PERIOD_S,
         )
 
     def _on_odom(self, message: Odometry) -> None:
@@ -289,6 +294,9 @@ class PilotNode(SuiteNodeBase):
             "modulation_depth": f"{pilot.command.carrier.depth:.4g}",
         }
         values["dropped_odometry_samples"] = str(pilot.dropped_samples)
+        if pilot.goal is not None:
+            values["goal_x_m"] = f"{pilot.goal[0]:.4g}"
+            values["goal_y_m"] = f"{pilot.goal[1]:.4g}"
         if pilot.command.pivot_shift_m is not None:
             values["pivot_shift_m"] = f"{pilot.command.pivot_shift_m:.4g}"
         if pilot.mode is Mode.GOAL:

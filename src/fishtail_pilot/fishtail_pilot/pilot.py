@@ -177,6 +177,9 @@ MIN_FEED_FORWARD_SHARE = 0.5
 #: A goal closer than this many tightest turning radii to the turning circle's centre is inside
 #: it: the fish tracks its beat-mean heading with a lag, so the circle it swims is wider.
 GOAL_CIRCLE_MARGIN = 1.3
+#: A goal further than this from the world origin in x or y is refused (m): a fish in a tank or
+#: a pond swims metres, and a goal kilometres off is a mistake (a unit or a garbled message).
+MAX_GOAL_COORDINATE_M = 1000.0
 
 
 class Mode(enum.Enum):
@@ -257,9 +260,18 @@ class Pilot:
         return None
 
     def set_goal(self, x_m: float, y_m: float) -> str | None:
-        """Swim to (x, y) in the world frame; the reason if it is refused (not finite)."""
+        """Swim to (x, y) in the world frame; the reason if it is refused.
+
+        A goal that is not finite, or beyond :data:`MAX_GOAL_COORDINATE_M` of the world origin in
+        x or y, is refused and the pilot goes on as before.
+        """
         if not (math.isfinite(x_m) and math.isfinite(y_m)):
             return f"goal_pose ({x_m!r}, {y_m!r}) is not finite"
+        if max(abs(x_m), abs(y_m)) > MAX_GOAL_COORDINATE_M:
+            return (
+                f"goal_pose ({x_m:g}, {y_m:g}) m refused: goals lie within "
+                f"{MAX_GOAL_COORDINATE_M:g} m of the world origin in x and y"
+            )
         if self.mode is not Mode.GOAL:
             self._integral_rad_s = 0.0
         self.mode = Mode.GOAL

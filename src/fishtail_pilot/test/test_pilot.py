@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from fishtail_pilot.pilot import BeatAverage, Mode, Pilot, PilotSettings, wrap_angle
+from fishtail_pilot.pilot import (
+    MAX_GOAL_COORDINATE_M,
+    BeatAverage,
+    Mode,
+    Pilot,
+    PilotSettings,
+    wrap_angle,
+)
 from fishtail_pilot.steering_map import ModulationChannel, PivotChannel
 
 SPEED_PER_BEAT_M = 0.25
@@ -225,3 +232,13 @@ def test_the_heading_reference_of_a_repeated_unreachable_turn_stays_within_a_sat
     # At most half the strongest turn a beat (the beat mean's lag) plus what saturates the
     # steering through the heading gain: 0.5 * 0.5 + 0.5 / 3 rad, not the quarter turn of before.
     assert 0.0 < lead <= 0.5 * 0.5 + 0.5 / 3.0 + 1e-12
+
+
+def test_a_goal_beyond_the_sane_range_is_refused_with_a_reason_naming_it():
+    fish_pilot = pilot()
+    reason = fish_pilot.set_goal(1e300, 3.0)
+    assert reason is not None and "1e+300" in reason and f"{MAX_GOAL_COORDINATE_M:g}" in reason
+    assert fish_pilot.mode is Mode.IDLE and fish_pilot.goal is None
+    assert fish_pilot.set_goal(3.0, -MAX_GOAL_COORDINATE_M - 1.0) is not None
+    assert fish_pilot.set_goal(-MAX_GOAL_COORDINATE_M, MAX_GOAL_COORDINATE_M) is None
+    assert fish_pilot.mode is Mode.GOAL
