@@ -48,7 +48,8 @@ def main() -> None:
     velocity.set_velocity(0.3, 0.1)
     print(f"Pilot.observe following cmd_vel: {observe_cost_us(velocity):.1f} us a message")
     goal = Pilot(settings, steering_map.modulation)
-    goal.set_goal(1e6, 1e3)
+    refusal = goal.set_goal(1e3, 1.0)  # far enough never to be reached, within the goals' range
+    assert refusal is None, refusal
     print(f"Pilot.observe swimming to a goal: {observe_cost_us(goal):.1f} us a message")
     pilot = Pilot(settings, steering_map.modulation)
     started = time.perf_counter()
