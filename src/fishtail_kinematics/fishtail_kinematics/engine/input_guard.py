@@ -19,6 +19,7 @@ from collections.abc import Mapping
 from fishtail_common.interface import CARRIER_JOINT, MOTOR_JOINT_STATE, Level
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_common.stream_timing import PeriodTiming
+from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
 
 #: Largest plausible |carrier angle| [rad] (docs/kinematics.md: why 1e9).
 MAX_ABS_CARRIER_ANGLE_RAD = 1e9
@@ -36,6 +37,14 @@ ANGLE_OUT_OF_RANGE = "angle_out_of_range"
 STAMP_IN_FUTURE = "stamp_in_future"
 STAMP_NOT_INCREASING = "stamp_not_increasing"
 BACKWARDS = "backwards"
+#: A forward step beyond what the motor can turn since the last sample (only with a speed limit).
+CARRIER_JUMP = "carrier_jump"
+#: Margin on the carrier speed limit before a step is a jump: a real motor's speed loop
+#: overshoots its limit by tens of per cent at most, a corrupt angle by orders of magnitude.
+JUMP_SPEED_MARGIN = 1.5
+#: Angle allowed on top of the margin [rad]: three counts of the driver's default encoder, the
+#: quantisation at both ends of a short interval (1 kHz: 2 counts in 1 ms are 6 rad/s).
+JUMP_SLACK_RAD = 0.01
 #: Reasons of :meth:`CarrierGuard.check`, in the order they are checked.
 GUARD_REASONS = (NON_FINITE, ANGLE_OUT_OF_RANGE, STAMP_IN_FUTURE, STAMP_NOT_INCREASING, BACKWARDS)
 #: The nodes' parameters that configure a guard.
@@ -66,6 +75,16 @@ STALE_TIMEOUT = ParameterSpec(
     0.1,
     600.0,
 )
+#: The simulator's speed limit of the carrier (read-only): the driver's ``max_speed_rad_s`` default.
+MAX_CARRIER_SPEED = ParameterSpec(
+    "max_carrier_speed_rad_s",
+    DEFAULT_TOP_SPEED_RAD_S,
+    f"the motor's top speed: a faster period is warned, a step beyond {JUMP_SPEED_MARGIN:g} times "
+    "it over the interval a carrier jump, dropped",
+    "rad/s",
+    0.1,
+    1000.0,
+)
 #: What each reason means, for a log line.
 REASON_TEXT = {
     NON_FINITE: "a NaN or infinite value",
@@ -73,7 +92,17 @@ REASON_TEXT = {
     STAMP_IN_FUTURE: "a stamp ahead of this node's clock",
     STAMP_NOT_INCREASING: "a stamp not after the previous sample's",
     BACKWARDS: "a carrier angle going backwards (the motor turns one way only)",
+    CARRIER_JUMP: "a carrier angle further ahead than the motor can turn since the last sample",
 }
+
+
+def plausible_advance_rad(elapsed_s: float, max_speed_rad_s: float) -> float:
+    """The largest carrier advance over ``elapsed_s`` that is not a jump [rad].
+
+    >>> round(plausible_advance_rad(0.005, 20.0), 6)
+    0.16
+    """
+    return JUMP_SPEED_MARGIN * max_speed_rad_s * elapsed_s + JUMP_SLACK_RAD
 
 
 class CarrierGuard:
@@ -87,14 +116,27 @@ class CarrierGuard:
         backwards_tolerance_rad: float = DEFAULT_BACKWARDS_TOLERANCE_RAD,
         future_tolerance_ns: int = int(DEFAULT_FUTURE_TOLERANCE_S * 1e9),
         restart_after_ns: int = int(DEFAULT_STALE_TIMEOUT_S * 1e9),
+        max_speed_rad_s: float = math.inf,
     ) -> None:
-        """Create a guard that has accepted nothing yet."""
+        """Create a guard that has accepted nothing yet.
+
+        ``max_speed_rad_s``: the motor's top speed; finite, a forward step beyond
+        :func:`plausible_advance_rad` since the reference is a :data:`CARRIER_JUMP`.
+        """
         self.backwards_tolerance_rad = backwards_tolerance_rad
         self.future_tolerance_ns = future_tolerance_ns
         self.restart_after_ns = restart_after_ns
+        self.max_speed_rad_s = max_speed_rad_s
         self._last_stamp_ns = 0
+        self._last_angle = 0.0
         self._highest_angle = -math.inf
         self._accepted_at_ns: int | None = None
+        # The last jumped sample (stamp, angle): a step that persists is re-based on it.
+        self._candidate: tuple[int, float] | None = None
+        #: The last jump: its advance [rad] and interval [s] (0, 0 before any).
+        self.jump = (0.0, 0.0)
+        #: After an accepted sample: the jumped sample the stream was re-based on, else None.
+        self.rebased_from: tuple[int, float] | None = None
 
     def check(self, stamp_ns: int, angle_rad: float, others: float, now_ns: int) -> str | None:
         """None if the sample is plausible (it becomes the reference), else the reason to drop it.
@@ -102,7 +144,13 @@ class CarrierGuard:
         ``others`` is the sum of the sample's other values that must be finite (a sum is NaN or
         infinite when one of its terms is); ``now_ns`` is the node's clock, 0 if it has no time
         yet (simulated time before the first /clock), which skips the future check.
+
+        With a finite ``max_speed_rad_s`` a forward jump is held: dropped, the reference kept, so a
+        one-sample spike costs one sample. A sample that continues plausibly from the jumped one
+        instead of the reference (the step persisted) is accepted and re-bases the stream on it
+        (:attr:`rebased_from`): two samples, not a wedge.
         """
+        self.rebased_from = None
         if not (math.isfinite(angle_rad) and math.isfinite(others)):
             return NON_FINITE
         if not abs(angle_rad) <= MAX_ABS_CARRIER_ANGLE_RAD:
@@ -115,13 +163,39 @@ class CarrierGuard:
                 return STAMP_NOT_INCREASING
             if angle_rad < self._highest_angle - self.backwards_tolerance_rad:
                 return BACKWARDS
+            if self._is_jump(stamp_ns, angle_rad):
+                return CARRIER_JUMP
             if angle_rad > self._highest_angle:
                 self._highest_angle = angle_rad
         else:
             self._highest_angle = angle_rad
+        self._candidate = None
         self._last_stamp_ns = stamp_ns
+        self._last_angle = angle_rad
         self._accepted_at_ns = now_ns
         return None
+
+    def _is_jump(self, stamp_ns: int, angle_rad: float) -> bool:
+        """True (and the sample held) if it jumped; a re-base on the held sample is no jump."""
+        limit = self.max_speed_rad_s
+        advance = angle_rad - self._last_angle
+        elapsed_s = (stamp_ns - self._last_stamp_ns) * 1e-9
+        if advance <= plausible_advance_rad(elapsed_s, limit):
+            return False
+        candidate = self._candidate
+        if candidate is not None and stamp_ns > candidate[0]:
+            from_candidate = angle_rad - candidate[1]
+            since_s = (stamp_ns - candidate[0]) * 1e-9
+            if (
+                -self.backwards_tolerance_rad <= from_candidate
+                and from_candidate <= plausible_advance_rad(since_s, limit)
+            ):
+                self.rebased_from = candidate
+                self._highest_angle = candidate[1]
+                return False
+        self._candidate = (stamp_ns, angle_rad)
+        self.jump = (advance, elapsed_s)
+        return True
 
     def reset(self) -> None:
         """Forget the reference: the next plausible sample is accepted whatever its stamp."""
@@ -136,6 +210,8 @@ class CarrierGuard:
         if STALE_TIMEOUT.name in values:
             # After the nodes' stale timeout without an accepted sample, follow the stream afresh.
             self.restart_after_ns = int(float(values[STALE_TIMEOUT.name]) * 1e9)
+        if MAX_CARRIER_SPEED.name in values:
+            self.max_speed_rad_s = float(values[MAX_CARRIER_SPEED.name])
 
 
 #: Drop reasons of a node that follows the carrier, besides the guard's: the message does not

@@ -16,6 +16,8 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
+from fishtail_kinematics.engine.input_guard import JUMP_SPEED_MARGIN, plausible_advance_rad
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_plant.errors import SwimInputError
 from fishtail_plant.fish.figures import tail_power
@@ -28,10 +30,28 @@ TWO_PI = 2.0 * math.pi
 # Sub-intervals shorter than this are not integrated (a beat boundary that coincides with a
 # sample up to rounding): far below any step, far above the rounding of times of a long run.
 _MIN_SEGMENT_S = 1e-12
+#: Largest carrier advance in one sub-step [rad]: 16 steps a beat, the fewest the library's checks
+#: use, whatever the sample spacing and ``max_step_s``.
+MAX_STEP_ANGLE_RAD = TWO_PI / 16
+#: Default cap on the sub-steps of one sample: the work per sample is bounded (a few ms compiled).
+DEFAULT_MAX_SUB_STEPS = 1000
 
 
 class StampNotIncreasingError(ValueError):
     """A sample stamped at or before the previous one: the fish's time cannot go back."""
+
+
+class CarrierJumpError(SwimInputError):
+    """The carrier advanced further than the motor can turn since the previous sample."""
+
+    def __init__(self, advance_rad: float, elapsed_s: float, max_speed_rad_s: float) -> None:
+        """The jump's advance over ``elapsed_s`` against the limit ``max_speed_rad_s``."""
+        super().__init__(
+            f"carrier jumped {advance_rad:.6g} rad in {elapsed_s:.6g} s "
+            f"(the motor turns at most {max_speed_rad_s:g} rad/s)"
+        )
+        self.advance_rad = advance_rad
+        self.elapsed_s = elapsed_s
 
 
 class LinearCarrier:
@@ -141,21 +161,33 @@ class SwimFollower:
         fish: FishParameters,
         max_step_s: float,
         max_interval_s: float = math.inf,
+        max_speed_rad_s: float = DEFAULT_TOP_SPEED_RAD_S,
+        max_sub_steps: int = DEFAULT_MAX_SUB_STEPS,
     ) -> None:
         """Follow ``tail`` on ``fish`` (one fish: float parameters) with sub-steps <= max_step_s.
 
-        ``max_interval_s``: a longer interval between samples is a gap, not integrated.
+        A sub-step also turns the carrier by at most :data:`MAX_STEP_ANGLE_RAD`.
+        ``max_interval_s``: a longer interval between samples is a gap, not integrated; so is one
+        that would take more than ``max_sub_steps`` sub-steps. ``max_speed_rad_s``: the motor's top
+        speed (default the driver's); a sample further ahead is a jump (:class:`CarrierJumpError`).
 
         Raises:
-            ValueError: ``max_step_s`` not finite and positive, or ``max_interval_s`` not positive.
+            ValueError: ``max_step_s`` not finite and positive, ``max_interval_s`` or
+                ``max_speed_rad_s`` not positive, or ``max_sub_steps`` below 1.
         """
         if not (math.isfinite(max_step_s) and max_step_s > 0.0):
             raise ValueError(f"max_step_s must be finite and positive, got {max_step_s!r}")
         if not max_interval_s > 0.0:
             raise ValueError(f"max_interval_s must be positive, got {max_interval_s!r}")
+        if not max_speed_rad_s > 0.0:
+            raise ValueError(f"max_speed_rad_s must be positive, got {max_speed_rad_s!r}")
+        if max_sub_steps < 1:
+            raise ValueError(f"max_sub_steps must be at least 1, got {max_sub_steps!r}")
         self.fish = fish
         self.max_step_s = max_step_s
         self.max_interval_s = max_interval_s
+        self.max_speed_rad_s = max_speed_rad_s
+        self.max_sub_steps = max_sub_steps
         self.carrier = LinearCarrier()
         self.model = SwimModel(fish, EngineTailDrive(tail, self.carrier))
         self._stepper = Stepper(self.model, 1)
@@ -173,6 +205,9 @@ class SwimFollower:
         self.beats_completed = 0
         self.sub_steps = 0
         self.restarts = 0
+        #: Carrier advance [rad] and time [s] integrated so far (restarts and gaps excluded).
+        self.integrated_rad = 0.0
+        self.integrated_s = 0.0
         #: Beats completed since the last :meth:`take_beats`.
         self.finished: list[BeatFigures] = []
 
@@ -181,16 +216,37 @@ class SwimFollower:
         """True once a sample has been followed."""
         return self.time_s is not None
 
-    def follow(self, stamp_ns: int, angle_rad: float) -> None:
+    @property
+    def last_stamp_ns(self) -> int:
+        """Stamp of the last sample followed (0 before the first)."""
+        return self._last_stamp_ns
+
+    def sub_steps_for(self, duration_s: float, advance_rad: float) -> int:
+        """An upper bound on the sub-steps of an interval (its beat boundaries included)."""
+        by_time = math.ceil(duration_s / self.max_step_s)
+        by_angle = math.ceil(max(advance_rad, 0.0) / MAX_STEP_ANGLE_RAD)
+        # Each beat boundary may add one sub-step to either count.
+        return by_time + by_angle + math.ceil(max(advance_rad, 0.0) / TWO_PI) + 1
+
+    def follow(self, stamp_ns: int, angle_rad: float) -> bool:
         """Integrate up to the sample at ``stamp_ns`` (after the previous one) with its angle.
 
         All or nothing: when the engine or the dynamics raise within the interval, the follower
-        is left as it was, so the next sample integrates from the last one that succeeded.
+        is left as it was, so the next sample integrates from the last one that succeeded. The
+        state is a function of the (stamp, angle) samples only; a jump is held the same way, and
+        an interval longer than ``max_interval_s`` or than ``max_sub_steps`` allow is a gap.
+
+        Returns False for a sample held as too soon: within the encoder's slack of the last one
+        but at a carrier speed over the margin (stamps microseconds apart); the next sample
+        integrates from the last one taken, so no accepted interval turns the carrier faster
+        than ``JUMP_SPEED_MARGIN`` x ``max_speed_rad_s``. True when the sample was taken.
 
         Raises:
             ValueError: a non-finite angle.
             StampNotIncreasingError: a stamp not after the previous sample's (the node's input
                 guard drops both before).
+            CarrierJumpError: the angle is further ahead than ``max_speed_rad_s`` allows (the
+                follower is left as it was).
             FishtailKinematicsError: the engine refused the carrier's motion.
             SwimError: the dynamics refused the state.
         """
@@ -201,7 +257,7 @@ class SwimFollower:
             self.time_s = 0.0
             self.angle_rad = angle_rad
             self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
-            return
+            return True
         if stamp_ns <= self._last_stamp_ns:
             raise StampNotIncreasingError(
                 f"stamp {stamp_ns} ns is not after the previous {self._last_stamp_ns}"
@@ -209,11 +265,19 @@ class SwimFollower:
         start_time, start_angle = self.time_s, self.angle_rad
         end_time = (stamp_ns - self.first_stamp_ns) * 1e-9
         duration = end_time - start_time
-        if duration > self.max_interval_s:
+        advance = angle_rad - start_angle
+        if advance > plausible_advance_rad(duration, self.max_speed_rad_s):
+            raise CarrierJumpError(advance, duration, self.max_speed_rad_s)
+        if abs(advance) > JUMP_SPEED_MARGIN * self.max_speed_rad_s * duration:
+            return False
+        if (
+            duration > self.max_interval_s
+            or self.sub_steps_for(duration, advance) > self.max_sub_steps
+        ):
             self._last_stamp_ns = stamp_ns
             self._restart(end_time, angle_rad)
-            return
-        speed = (angle_rad - start_angle) / duration
+            return True
+        speed = advance / duration
         carrier = self.carrier
         previous_carrier = (carrier.start_time_s, carrier.start_angle_rad, carrier.speed_rad_s)
         carrier.set(start_time, start_angle, speed)
@@ -249,8 +313,11 @@ class SwimFollower:
         self.finished.extend(finished)
         self.beats_completed += len(finished)
         self.sub_steps += steps
+        self.integrated_rad += advance
+        self.integrated_s += duration
         self._last_stamp_ns = stamp_ns
         self.time_s, self.angle_rad = end_time, angle_rad
+        return True
 
     def restart(self, stamp_ns: int, angle_rad: float) -> None:
         """Follow the carrier afresh from this sample, whatever its stamp and angle.
@@ -316,7 +383,12 @@ class SwimFollower:
         if length < _MIN_SEGMENT_S:
             return state, 0
         # A step a rounding error longer than max_step_s (stamps are whole nanoseconds) is one step.
-        steps = max(1, math.ceil(length / self.max_step_s - 1e-6))
+        turned = abs(self.carrier.speed_rad_s) * length
+        steps = max(
+            1,
+            math.ceil(length / self.max_step_s - 1e-6),
+            math.ceil(turned / MAX_STEP_ANGLE_RAD - 1e-6),
+        )
         step = length / steps
         states = np.empty((steps + 1, 1, STATE_SIZE))
         states[0] = state

@@ -43,9 +43,11 @@ from fishtail_common.ros import (
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.input_guard import (
+    CARRIER_JUMP,
     ENGINE_REFUSED,
     FOLLOWER_REASONS,
     GUARD_PARAMETERS,
+    MAX_CARRIER_SPEED,
     MOTOR_JOINT_NAME,
     NO_CARRIER_JOINT,
     REASON_TEXT,
@@ -59,7 +61,12 @@ from fishtail_kinematics.engine.input_guard import (
 from fishtail_msgs.msg import SwimFigures
 from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FISH_PARAMETERS
-from fishtail_plant.fish.follower import BeatFigures, StampNotIncreasingError, SwimFollower
+from fishtail_plant.fish.follower import (
+    BeatFigures,
+    CarrierJumpError,
+    StampNotIncreasingError,
+    SwimFollower,
+)
 from fishtail_plant.fish.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
 from fishtail_plant.values import TAIL_PARAMETERS, fish_from_values, tail_from_values
 from fishtail_swim.frames import yaw_quaternion
@@ -78,6 +85,11 @@ INPUT_TOPIC = MOTOR_JOINT_STATE.name
 DIAGNOSTICS_PERIOD_S = 1.0
 #: The smallest pivot movement the simulated tail follows.
 PIVOT_RESOLUTION_M = 1e-4
+#: A period's mean carrier speed this far above max_carrier_speed_rad_s is warned: the stamps'
+#: jitter at both ends of a 1 s period is well below it.
+SPEED_WARN_TOLERANCE = 0.01
+#: The simulator's drop reasons: the follower's, and a carrier jump.
+SIM_REASONS = (*FOLLOWER_REASONS, CARRIER_JUMP)
 
 MAX_STEP = ParameterSpec(
     "max_step_sec",
@@ -101,6 +113,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = read_only(
         MAX_STEP,
         STALE_TIMEOUT,
         *GUARD_PARAMETERS,
+        MAX_CARRIER_SPEED,
         *MARKER_PARAMETERS,
         PUBLISH_TF,
     )
@@ -136,14 +149,23 @@ class SimNode(SuiteNodeBase):
         tail = tail_from_values(values)
         fish = fish_from_values(values)
         self.stale_timeout_s = float(values[STALE_TIMEOUT.name])
+        self.max_carrier_speed = float(values[MAX_CARRIER_SPEED.name])
         self.follower = SwimFollower(
-            tail, fish, float(values[MAX_STEP.name]), max_interval_s=self.stale_timeout_s
+            tail,
+            fish,
+            float(values[MAX_STEP.name]),
+            max_interval_s=self.stale_timeout_s,
+            max_speed_rad_s=self.max_carrier_speed,
         )
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
         self.carrier_joint = CarrierJoint(self.motor_joint_name)
         self.guard = CarrierGuard()
         self.guard.apply_parameters(values)
-        self.drops = DropCounts(FOLLOWER_REASONS)
+        self.drops = DropCounts(SIM_REASONS)
+        #: Carrier jumps in total, and the largest of the diagnostics period: (advance, interval).
+        self.jumps = 0
+        self._period_jump: tuple[float, float] | None = None
+        self._period_integrated = (0.0, 0.0)
         self._drop_log = {
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
@@ -244,17 +266,34 @@ class SimNode(SuiteNodeBase):
         accepted_ns = self._accepted_ns
         fresh = accepted_ns is None or now_ns - accepted_ns > self.guard.restart_after_ns
         reason = self.guard.check(stamp_ns, angle, velocity, now_ns)
+        if reason == CARRIER_JUMP:
+            self._carrier_jump(*self.guard.jump)
+            return
         if reason is not None:
             self._reject(reason, self._drop_log[reason])
             return
         self._accepted_ns = now_ns
         self.timing.observe(stamp_ns * 1e-9)
         follower = self.follower
+        rebased_from = self.guard.rebased_from
+        taken = True
         try:
-            if fresh:
+            try:
+                if rebased_from is not None:
+                    # The jump persisted: follow the stream from the jumped sample on.
+                    follower.restart(*rebased_from)
+                    taken = follower.follow(stamp_ns, angle)
+                elif fresh and not self._continues(stamp_ns, angle):
+                    follower.restart(stamp_ns, angle)
+                else:
+                    # Also after a pause of this node: samples that continue the stream are
+                    # integrated, whenever they arrive.
+                    taken = follower.follow(stamp_ns, angle)
+            except CarrierJumpError as error:
+                # Only where the follower's reference is not the guard's (a refused sample, a
+                # pause): the guard took this sample as its reference, so does the fish.
                 follower.restart(stamp_ns, angle)
-            else:
-                follower.follow(stamp_ns, angle)
+                self._carrier_jump(error.advance_rad, error.elapsed_s)
         except StampNotIncreasingError:
             self._reject(STAMP_NOT_INCREASING, self._drop_log[STAMP_NOT_INCREASING])
             return
@@ -263,12 +302,61 @@ class SimNode(SuiteNodeBase):
             # sample is dropped and reported, the fish keeps its last good state.
             self._reject(ENGINE_REFUSED, f"engine refused carrier angle {angle!r}: {error}")
             return
+        if not taken:
+            return  # too soon after the last sample taken: the next one integrates across it
         self.publish_odometry(stamp)
         self.markers.latest = (follower.state, angle, stamp)
         if follower.finished:
             for beat in follower.take_beats():
                 end_ns = follower.first_stamp_ns + round(beat.end_time_s * 1e9)
                 self.figures_publisher.publish(figures_message(beat, end_ns))
+
+    def _continues(self, stamp_ns: int, angle_rad: float) -> bool:
+        """True if the sample follows on from the follower's last one (stamp and angle)."""
+        follower = self.follower
+        return (
+            follower.started
+            and stamp_ns > follower.last_stamp_ns
+            and angle_rad >= follower.angle_rad - self.guard.backwards_tolerance_rad
+        )
+
+    def _carrier_jump(self, advance_rad: float, elapsed_s: float) -> None:
+        """Count and warn a carrier jump (not integrated) of ``advance_rad`` in ``elapsed_s``."""
+        self.jumps += 1
+        self.drops.count(CARRIER_JUMP)
+        if self._period_jump is None or advance_rad > self._period_jump[0]:
+            self._period_jump = (advance_rad, elapsed_s)
+        self.get_logger().warning(
+            f"{INPUT_TOPIC}: carrier jumped {advance_rad:.6g} rad in {elapsed_s * 1e3:.6g} ms, "
+            f"beyond {MAX_CARRIER_SPEED.name} = {self.max_carrier_speed:g}: not integrated",
+            throttle_duration_sec=2.0,
+        )
+
+    def _carrier_problems(self) -> tuple[list[str], dict[str, str]]:
+        """This period's jumps and a mean carrier speed beyond the limit: texts and values."""
+        problems = []
+        jump, self._period_jump = self._period_jump, None
+        if jump is not None:
+            problems.append(
+                f"carrier jumped (largest {jump[0]:.6g} rad in {jump[1] * 1e3:.6g} ms; "
+                f"{self.jumps} jumps in total): not integrated"
+            )
+        follower = self.follower
+        turned = follower.integrated_rad - self._period_integrated[0]
+        elapsed = follower.integrated_s - self._period_integrated[1]
+        self._period_integrated = (follower.integrated_rad, follower.integrated_s)
+        speed = turned / elapsed if elapsed > 0.0 else 0.0
+        if speed > self.max_carrier_speed * (1.0 + SPEED_WARN_TOLERANCE):
+            problems.append(
+                f"carrier at {speed:.4g} rad/s, beyond {MAX_CARRIER_SPEED.name} = "
+                f"{self.max_carrier_speed:g}"
+            )
+        values = {
+            "carrier_jumps": str(self.jumps),
+            "largest_jump_rad": f"{jump[0]:.6g}" if jump is not None else "0",
+            "carrier_speed_rad_s": f"{speed:.6g}",
+        }
+        return problems, values
 
     def publish_odometry(self, stamp: Time) -> None:
         """Fill and publish fish/odom from the follower's state, and its pose on /tf.
@@ -299,6 +387,10 @@ class SimNode(SuiteNodeBase):
         level, text, input_values = input_status(
             INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
         )
+        carrier_problems, carrier_values = self._carrier_problems()
+        if carrier_problems:
+            level = Level.WARN
+            text = "; ".join((*carrier_problems, text))
         row = self.follower.state[0]
         speed = math.hypot(float(row[SURGE]), float(row[SWAY]))
         heading_deg = math.degrees(float(row[PSI]))
@@ -322,6 +414,7 @@ class SimNode(SuiteNodeBase):
             "received": str(self.received),
             "tf": self.tf_state,
             "pivot_shift_m": f"{self.pivot_shift_m:.6g}",
+            **carrier_values,
             **input_values,
         }
         self.diagnostics_publisher.publish(
