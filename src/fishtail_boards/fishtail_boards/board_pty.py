@@ -39,6 +39,7 @@ class BoardConfig(FirmwareConfig):
     boot_ms: float = 0.0
     delay_ms: float = 0.0
     delay_after_s: float | None = None
+    delay_for_s: float | None = None
     drop_rate: float = 0.0
     garble_rate: float = 0.0
     reset_after_s: float | None = None
@@ -58,6 +59,8 @@ class BoardConfig(FirmwareConfig):
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.delay_after_s is not None and not self.delay_after_s >= 0:
             raise ValueError(f"delay_after_s must be >= 0, got {self.delay_after_s}")
+        if self.delay_for_s is not None and not self.delay_for_s > 0:
+            raise ValueError(f"delay_for_s must be > 0, got {self.delay_for_s}")
 
 
 class FakeBoard:
@@ -109,6 +112,11 @@ class FakeBoard:
         self._slow_at = (
             None if config.delay_after_s is None else self.start_time + config.delay_after_s
         )
+        #: When a slow spell of ``delay_for_s`` ends (replies already queued keep their time).
+        self._fast_at = (
+            None if config.delay_for_s is None
+            else self.start_time + (config.delay_after_s or 0.0) + config.delay_for_s
+        )  # fmt: skip
         self._toggle_slow_requested = threading.Event()
         self._scripted_delays: collections.deque[float] = collections.deque()
         self.commands: list[tuple[float, str]] = []
@@ -237,7 +245,7 @@ class FakeBoard:
 
         def action() -> None:
             now = self._clock()
-            self._slow_at = None
+            self._slow_at = self._fast_at = None
             if self.slow != slow:
                 self.slow = slow
                 self.counts["slow_on" if slow else "slow_off"] += 1
@@ -351,9 +359,14 @@ class FakeBoard:
             self.slow = True
             self.counts["slow_on"] += 1
             self._record(now, "# slow on (scheduled)")
+        if self._fast_at is not None and now >= self._fast_at:
+            self._fast_at = None
+            self.slow = False
+            self.counts["slow_off"] += 1
+            self._record(now, "# slow off (scheduled)")
         if self._toggle_slow_requested.is_set():
             self._toggle_slow_requested.clear()
-            self._slow_at = None
+            self._slow_at = self._fast_at = None
             self.slow = not self.slow
             self.counts["slow_on" if self.slow else "slow_off"] += 1
             self._record(now, f"# slow {'on' if self.slow else 'off'} (requested)")
@@ -390,7 +403,8 @@ class FakeBoard:
             candidates.append(self._rx[0][0])
         if self._tx:
             candidates.append(self._tx[0][0])
-        for moment in (self._reset_at, self._unplug_at, self._replug_at, self._slow_at):
+        moments = (self._reset_at, self._unplug_at, self._replug_at, self._slow_at, self._fast_at)
+        for moment in moments:
             if moment is not None:
                 candidates.append(moment)
         return min(candidates)

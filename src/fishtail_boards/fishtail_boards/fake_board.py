@@ -73,6 +73,13 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="answer at once until this long after start, then delay replies by --delay-ms",
     )
+    add(
+        "--delay-for-s",
+        type=float,
+        default=None,
+        help="delay replies for this long only (from --delay-after-s), then answer at once "
+        "again; replies already queued keep their time",
+    )
     add("--drop-rate", type=float, default=0.0, help="probability of losing a command/reply")
     add("--garble-rate", type=float, default=0.0, help="probability of corrupting an exchange")
     add("--reset-after-s", type=float, default=None, help="reset the board once, after this")
@@ -116,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
             boot_ms=args.boot_ms,
             delay_ms=args.delay_ms,
             delay_after_s=args.delay_after_s,
+            delay_for_s=args.delay_for_s,
             drop_rate=args.drop_rate,
             garble_rate=args.garble_rate,
             reset_after_s=args.reset_after_s,

@@ -125,6 +125,35 @@ def test_late_replies_are_discarded_not_published(fake_board, driver_run, delay_
     assert run.counter("phase_rebases") == 0
 
 
+@pytest.mark.slow
+def test_queued_late_replies_are_not_published_after_a_reopen(fake_board, driver_run):
+    """Replies 300 ms late and queued for seconds: none published after a reopen, all counted.
+
+    The driver declares the link lost and reopens the port while the board is slow; the board
+    still answers requests written before each reopen afterwards. No such reply may be published
+    as a later request's (it was: samples 300 ms old with current stamps); they are discarded
+    and counted on /diagnostics (``stale_readings`` beside them), and the driver comes back once
+    the board is prompt.
+    """
+    board = fake_board(delay_ms=300.0)
+    board.board.set_slow(False)
+    run = driver_run(board.link, serial_read_timeout_sec=READ_TIMEOUT_S)
+    run.start_motion(SPEED)
+    run.wait(lambda: run.angle() > 1.0, 10.0, "the joint_state angle to advance")
+    board.board.set_slow(True)
+    run.wait(lambda: run.counter("disconnects") >= 1, 10.0, "the link declared lost")
+    run.wait(lambda: run.counter("reconnects") + run.counter("handshake_failures") >= 3, 20.0,
+             "three reopens while the board is slow")  # fmt: skip
+    board.board.set_slow(False)
+    held = run.angle()
+    run.wait(lambda: run.angle() > held + 1.0, 15.0, "motion once the board is fast again")
+    run.stop()
+    assert_stamped_when_read(run.joints, board)
+    assert_strictly_increasing(run.joints)
+    assert run.counter("discarded_replies") >= 3
+    assert "stale_readings" in run.statuses()[-1][2]
+
+
 def test_slow_board_within_the_timeout_is_stamped_at_the_request_and_warns(fake_board, driver_run):
     """Replies 80 ms late under a 100 ms timeout: accepted, stamped honestly, the rate a WARN.
 

@@ -204,3 +204,30 @@ def test_reply_delay_is_added_after_the_reading():
         assert board._tx[-1][0] == pytest.approx(2.08)
     finally:
         board.close()
+
+
+def test_slow_spell_of_delay_for_s_queues_replies_and_ends():
+    """``delay_for_s``: replies late from ``delay_after_s`` for that long; queued ones keep theirs.
+
+    A reply to a command after the spell still waits behind the delayed one before it (one line).
+    """
+    now = [0.0]
+    config = BoardConfig(delay_ms=300.0, delay_after_s=1.0, delay_for_s=8.0)
+    board = FakeBoard(config, announce=lambda _: None, clock=lambda: now[0])
+    try:
+        board._scheduled(1.0)
+        assert board.slow
+        for moment in (8.9, 8.95):  # two requests queue: each 300 ms late, in order
+            board._rx.extend((moment, byte) for byte in b"e\r")
+            board._receive(moment)
+        assert [when for when, _ in board._tx] == pytest.approx([9.2, 9.25])
+        assert board._next_wakeup(8.95) == pytest.approx(9.0)
+        board._scheduled(9.0)
+        assert not board.slow and board.counts["slow_off"] == 1
+        board._rx.extend((9.01, byte) for byte in b"e\r")
+        board._receive(9.01)
+        assert board._tx[-1][0] == pytest.approx(9.25)  # behind the queued replies
+    finally:
+        board.close()
+    with pytest.raises(ValueError, match="delay_for_s"):
+        BoardConfig(delay_for_s=0.0)

@@ -648,3 +648,113 @@ def test_close_reports_whether_the_stop_got_through(
     assert "not sent" in outcome.detail and "does not exist" in outcome.detail
     never = SerialBackend(SerialConfig(port=str(tmp_path / "no-board")))
     assert not never.close().sent
+
+
+def assert_dated_at_the_boards_reading(board, samples, tolerance_s: float = 0.05) -> None:
+    """Each sample carries the count the board read at (about) the sample's time.
+
+    A late reply taken for a later request's would be dated at least the read timeout late.
+    """
+    read_at: dict[int, list[float]] = {}
+    for when, left, _ in list(board.board.firmware.encoder_reads):
+        read_at.setdefault(left, []).append(when)
+    count_rad = 2 * math.pi / 2048
+    errors = []
+    for sample in samples:
+        times = read_at[round(sample.angle_rad / count_rad)]
+        errors.append(min(abs(when - sample.monotonic_s) for when in times))
+    stale = [error for error in errors if error >= tolerance_s]
+    assert not stale, (
+        f"{len(stale)} of {len(errors)} samples dated {max(stale) * 1e3:.0f} ms (worst) away "
+        "from the board's reading"
+    )
+
+
+@pytest.mark.slow
+def test_queued_late_replies_are_never_taken_after_a_reopen(
+    fake_board, serial_backend, sampler, wait_until
+):
+    """A board slow for seconds (replies 300 ms late, queued): no stale sample after a reopen.
+
+    The link is declared lost and the port reopened several times while the board is slow; its
+    replies to requests written before each reopen still come afterwards. None may be taken for
+    the answer to a request written after it (the handshake's in-step check used to take one:
+    a sample 300 ms old with a current stamp, 1.2 rad off at 4 rad/s, at every reopen). They
+    are discarded and counted; once the board is prompt again the link comes back.
+    """
+    board = fake_board(delay_ms=300.0)
+    board.board.set_slow(False)
+    backend = serial_backend(board.link, read_timeout_s=0.1, stale_timeout_s=1.0,
+                             **FAST_RECONNECT)  # fmt: skip
+    samples = sampler(backend)
+    wait_until(lambda: level(backend) == 0, 5.0, "connected")
+    backend.set_speed(4.0)
+    wait_until(lambda: samples.angle() > 1.0, 5.0, "motion")
+    board.board.set_slow(True)
+
+    def reopens() -> int:
+        return counter(backend, "reconnects") + counter(backend, "handshake_failures")
+
+    wait_until(lambda: counter(backend, "disconnects") >= 1, 5.0, "the link declared lost")
+    deadline = time.monotonic() + 20.0
+    while reopens() < 3:  # several reopens while the board is slow
+        assert time.monotonic() < deadline, "no reopens while the board is slow"
+        backend.set_speed(4.0)  # keep the command fresh
+        time.sleep(0.05)
+    board.board.set_slow(False)
+    held = samples.angle()
+    deadline = time.monotonic() + 10.0
+    while samples.angle() <= held + 1.0:
+        assert time.monotonic() < deadline, "no motion once the board is fast again"
+        backend.set_speed(4.0)
+        time.sleep(0.05)
+    samples.stop()
+    assert_dated_at_the_boards_reading(board, samples.samples)
+    assert_no_jump(samples.samples)
+    assert counter(backend, "discarded_replies") >= 3
+    assert "stale_readings" in backend.status()[2]
+
+
+def test_a_reading_answered_later_than_its_stamp_promises_is_counted_not_published(
+    fake_board, serial_backend, sampler, wait_until
+):
+    """The I/O thread held up 150 ms with a reply in hand (read timeout 100 ms): not published.
+
+    The reading may be as old as its round trip; a stamp at the request promises no more than
+    the read timeout, so it is counted (``stale_readings``, WARN naming it) instead.
+    """
+    board = fake_board()
+    backend = serial_backend(board.link, read_timeout_s=0.1)
+    wait_until(lambda: counter(backend, "polls") >= 5, 5.0, "connected and polling")
+    link = backend._link
+    read_line, exchange = link.read_line, link.exchange
+    stalled: list[bool] = []
+    late: list[Answered] = []
+
+    def stalled_read_line(deadline: float):
+        line = read_line(deadline)
+        if not stalled and line[:1].isdigit():
+            stalled.append(True)
+            time.sleep(0.15)  # the host preempted after the reply came
+        return line
+
+    def watched_exchange(payload, parse):
+        result = exchange(payload, parse)
+        if isinstance(result, Answered) and result.round_trip_s > 0.1:
+            late.append(result)
+        return result
+
+    samples = sampler(backend)
+    link.exchange = watched_exchange
+    link.read_line = stalled_read_line
+    wait_until(lambda: counter(backend, "stale_readings") == 1, 5.0, "the stale reading counted")
+    polls = counter(backend, "polls")
+    wait_until(lambda: counter(backend, "polls") >= polls + 5, 5.0, "polls go on")
+    samples.stop()
+    status = backend.status()
+    assert status[0] == 1 and "stale_readings" in status[1], status[1]
+    assert "not published" in status[2]["last_fault"]
+    assert counter(backend, "stale_readings") == 1
+    assert len(late) == 1
+    stamps = [sample.monotonic_s for sample in samples.samples]
+    assert late[0].request_arrived_s not in stamps, "the reading held up 150 ms was published"

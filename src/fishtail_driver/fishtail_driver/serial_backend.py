@@ -59,6 +59,7 @@ class SerialBackend:
         self._thread: threading.Thread | None = None
         self.counters = StatusCounters(clock)
         self.counters.set("phase_rebases", 0)
+        self.counters.set("stale_readings", 0)
         self._link = SerialLink(config, self.counters, self._closing, clock, opener)
         self._tracker = EncoderTracker(
             self.scale, config.channel, config.max_speed_rad_s, config.velocity_window_s
@@ -84,6 +85,7 @@ class SerialBackend:
         self._state = "not started"
         self._final_stop = "not sent"
         self._last_rebase: tuple[str, float] | None = None  # (why, when)
+        self._first_after_connect = False  # the next reading is the first since connecting
 
     # ------------------------------------------------------------------------------------------
     # MotorBackend interface (called from the node's threads; never blocks on I/O)
@@ -303,7 +305,11 @@ class SerialBackend:
             if not isinstance(update, Answered):
                 self.counters.count("pid_gains_not_acknowledged")
         # The first reading decides whether the board was reset while we were away.
-        self._accept(handshake.pair, handshake.read_s, after_connect=True)
+        # (Not published if stale: then the first poll's reading decides.)
+        self._first_after_connect = True
+        if self._fresh(handshake.reply_s - handshake.read_s):
+            self._accept(handshake.pair, handshake.read_s, after_connect=True)
+            self._first_after_connect = False
         self.counters.count("connects")
         if self.counters["connects"] > 1:
             self.counters.count("reconnects")
@@ -417,8 +423,25 @@ class SerialBackend:
         half the round trip late. The reading is within [request arrival, reply arrival].
         """
         reply = self._link.exchange(encode_read_encoders(), parse_encoders)
-        if isinstance(reply, Answered):
-            self._accept(reply.value, reply.request_arrived_s, after_connect=False)
+        if isinstance(reply, Answered) and self._fresh(reply.round_trip_s):
+            self._accept(reply.value, reply.request_arrived_s, self._first_after_connect)
+            self._first_after_connect = False
+
+    def _fresh(self, round_trip_s: float) -> bool:
+        """Whether a reading is dated as well as its stamp promises; counts it if not.
+
+        A reading is stamped when its request reached the board, but it may be as old as its
+        round trip: one that took longer than ``read_timeout_s`` (what the stamp promises,
+        docs/serial.md) is not published, only counted (``stale_readings``).
+        """
+        if round_trip_s <= self.config.read_timeout_s:
+            return True
+        self.counters.fault(
+            "stale_readings",
+            f"a reading answered {round_trip_s * 1e3:.0f} ms after its request was not "
+            f"published (its stamp promises {self.config.read_timeout_s * 1e3:.0f} ms)",
+        )
+        return False
 
     def _accept(self, pair: tuple[int, int], when: float, after_connect: bool) -> None:
         """Hand one reading to the tracker; publish its sample, count what it decided."""

@@ -57,6 +57,13 @@ class Answered(Generic[T]):
     value: T
     #: When the request's last byte reached the board (monotonic s): when it acted on it.
     request_arrived_s: float
+    #: When the reply's line was whole here (monotonic s): the reading is no later than this.
+    reply_arrived_s: float
+
+    @property
+    def round_trip_s(self) -> float:
+        """How long the board may have held the reading: from the request to its reply [s]."""
+        return self.reply_arrived_s - self.request_arrived_s
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,9 +80,10 @@ class Handshake:
 
     #: Its ``b`` reply; None for a firmware without ``b`` (it answered Invalid Command).
     board_baud: int | None
-    #: The last of the verifying ``e`` readings, and when the board took it.
+    #: The last of the verifying ``e`` readings, when the board took it and when it came back.
     pair: tuple[int, int]
     read_s: float
+    reply_s: float
 
 
 class SerialLink:
@@ -103,9 +111,10 @@ class SerialLink:
         self.board_baud: int | None = None
         #: When the last valid reply arrived (monotonic s).
         self.last_good_s = -float("inf")
-        #: Fence probes (``b``) written whose replies have not been seen: an upper bound, since a
-        #: lost reply is never seen (an answered exchange shows that none is still on its way).
-        self._probes_in_flight = 0
+        #: When the probes (``b``) whose replies have not been seen were written: an upper bound,
+        #: since a lost reply is never seen (an answered exchange shows that none is still on its
+        #: way). Kept across a reopen: a slow board (or its USB stack) still answers them then.
+        self._probes: collections.deque[float] = collections.deque()
 
     # --- the port --------------------------------------------------------------------------
 
@@ -134,14 +143,18 @@ class SerialLink:
             self._rdev = os.fstat(self._port.fileno()).st_rdev
         except Exception:  # URLs and test doubles have no device number
             self._rdev = None
+        # Whatever waits in the input buffer answers requests of an earlier connection.
+        self.resync(quiet=False)
 
     def close(self) -> None:
-        """Close the port (if open) and forget buffered input; never raises."""
+        """Close the port (if open) and forget buffered input; never raises.
+
+        The count of probes in flight is kept: their replies may still come after a reopen.
+        """
         port, self._port = self._port, None
         self._rdev = None
         self._framer.clear()
         self._lines.clear()
-        self._probes_in_flight = 0
         if port is not None:
             try:
                 port.close()
@@ -308,8 +321,8 @@ class SerialLink:
             return self._failed(Failed(error.kind, error.reason))
         self.last_good_s = self._clock()
         # The board answers in order: a probe written before this request will never answer now.
-        self._probes_in_flight = 0
-        return Answered(value, sent + self.request_s(payload))
+        self._probes.clear()
+        return Answered(value, sent + self.request_s(payload), self.last_good_s)
 
     def _failed(self, failed: Failed) -> Failed:
         self.counters.fault(failed.kind, failed.reason)
@@ -327,23 +340,41 @@ class SerialLink:
         # The board's own answer only: a corrupted reading can look like a bare number.
         return self.board_baud is None or baud == self.board_baud
 
-    def _probe_answered(self) -> None:
-        self._probes_in_flight = max(0, self._probes_in_flight - 1)
+    def _probe_written(self) -> None:
+        self._probes.append(self._clock())
 
-    def fence(self) -> None:
-        """Get back in step after a failed exchange: no late reply may pass for a later one's.
+    def _probe_answered(self) -> None:
+        if self._probes:
+            self._probes.popleft()
+
+    def _probes_in_flight(self) -> int:
+        """Probes whose replies may still come: unanswered, written in ``handshake_timeout_s``.
+
+        An older one is taken as lost, so that probes lost while a board boots or stays deaf do
+        not make every later fence wait for them.
+        """
+        horizon = self._clock() - self.config.handshake_timeout_s
+        while self._probes and self._probes[0] < horizon:
+            self._probes.popleft()
+        return len(self._probes)
+
+    def fence(self, give_up_at: float | None = None) -> None:
+        """Get back in step after a failed exchange or a (re)connect: no late reply may pass.
 
         The protocol has no request tags, so a probe (``b``) is written and every line discarded
-        (``discarded_replies``) until a probe reply that can only answer a probe written after the
-        failed request: one more than the probes still unanswered from earlier fences. Why this
-        is enough: docs/serial.md ("Replies that come late"). When closing, one attempt only.
+        (``discarded_replies``) until a probe reply that can only answer a probe written after
+        every earlier request: one more than the probes still unanswered from earlier fences and
+        handshakes (also of an earlier connection: a slow board answers them after a reopen).
+        Why this is enough: docs/serial.md ("Replies that come late"). When closing, one attempt
+        only. ``give_up_at`` (the handshake's deadline) replaces the stale timeout.
 
         Raises:
-            LinkLostError: the port failed, or no valid reply came for ``stale_timeout_s``.
+            LinkLostError: the port failed, or no valid reply came for ``stale_timeout_s`` (or
+                not in step by ``give_up_at``).
         """
         config = self.config
         self.counters.count("resyncs")
-        owed = self._probes_in_flight + 1
+        owed = self._probes_in_flight() + 1
         while True:
             lines, discarded = self.drain_input()
             for line in lines:
@@ -355,7 +386,7 @@ class SerialLink:
             # The probe written now is after everything else: its reply is always enough.
             owed = max(owed, 1)
             self.write(encode_get_baud())
-            self._probes_in_flight += 1
+            self._probe_written()
             deadline = self._clock() + config.read_timeout_s
             while owed > 0:
                 try:
@@ -371,7 +402,12 @@ class SerialLink:
             silent_s = self._clock() - self.last_good_s
             if owed <= 0 or self._closing.is_set():
                 return
-            if silent_s > config.stale_timeout_s:
+            if give_up_at is not None:
+                if self._clock() >= give_up_at:
+                    raise LinkLostError(
+                        f"not in step ({self.counters['discarded_replies']} replies discarded)"
+                    )
+            elif silent_s > config.stale_timeout_s:
                 raise LinkLostError(
                     f"no valid reply for {silent_s:.1f} s (replies late or out of step: "
                     f"{self.counters['discarded_replies']} discarded)"
@@ -397,6 +433,7 @@ class SerialLink:
                 raise LinkLostError("closing")
             self.resync(quiet=False)
             self.write(encode_get_baud())
+            self._probe_written()  # a probe like the fence's: it may be answered later
             try:
                 line = self.read_line(self._clock() + probe_s)
                 if isinstance(line, OversizedLine):
@@ -409,6 +446,9 @@ class SerialLink:
                     baud = 0  # alive, but a firmware without 'b'
                 else:
                     self.counters.count("handshake_noise")
+            if baud is not None:
+                self._probe_answered()
+                self.last_good_s = self._clock()
             if baud is None and self._clock() >= deadline:
                 self.counters.count("handshake_failures")
                 raise LinkLostError(
@@ -419,22 +459,23 @@ class SerialLink:
         self.board_baud = baud or None
         if baud and baud != config.baud:
             self.counters.count("baud_mismatch")
-        pair, read_s = self._verify_in_step(deadline + config.stale_timeout_s)
-        return Handshake(self.board_baud, pair, read_s)
+        pair, read_s, reply_s = self._verify_in_step(deadline + config.stale_timeout_s)
+        return Handshake(self.board_baud, pair, read_s, reply_s)
 
-    def _verify_in_step(self, deadline: float) -> tuple[tuple[int, int], float]:
-        """Two ``e`` exchanges, each on a quiet line and answered within the read timeout.
+    def _verify_in_step(self, deadline: float) -> tuple[tuple[int, int], float, float]:
+        """Two ``e`` exchanges in a row, fenced and answered within the read timeout.
 
         The protocol has no sequence numbers: a board that answers later than the timeout would
-        otherwise look healthy, its late replies taken for answers to later requests. With the
-        line quiet before each request, only a timely reply can pass; returns the last reading.
+        otherwise look healthy, its late replies taken for answers to later requests. A quiet
+        line is no proof (a reply may come any time later, also after a reopen), so the line is
+        fenced (:meth:`fence`) first and again after any failed or late exchange: only a timely
+        reply to the request just written can pass. Returns the last reading, when the board
+        took it and when its reply came.
         """
         config = self.config
-        # Between the two exchanges the line must stay quiet longer than a reply could be late
-        # and still be mistaken for the next one (read timeout + quiet time).
-        quiet_s = max(0.05, config.read_timeout_s)
         verified = 0
         last_error = "no reply"
+        fenced = False
         while True:
             if self._closing.is_set():
                 raise LinkLostError("closing")
@@ -444,11 +485,24 @@ class SerialLink:
                     f"the board on {config.port} answers 'b' but not 'e' in step within "
                     f"{config.read_timeout_s:g} s ({last_error})"
                 )
-            wait_s = quiet_s + (config.read_timeout_s if verified else 0.0)
-            limit_s = max(deadline - self._clock(), 0.0)
-            if self.resync(quiet=True, quiet_s=wait_s, limit_s=limit_s) and verified:
+            if not fenced:
+                verified = 0
+                try:
+                    self.fence(give_up_at=deadline)
+                except LinkLostError as error:
+                    if self._clock() < deadline or self._closing.is_set():
+                        raise  # the port failed
+                    self.counters.count("handshake_failures")
+                    raise LinkLostError(
+                        f"the board on {config.port} answers 'b' but not 'e' in step within "
+                        f"{config.read_timeout_s:g} s ({error})"
+                    ) from None
+                fenced = True
+            if self.resync(quiet=False) and verified:
                 verified, last_error = 0, "bytes arrived after a reply (late replies?)"
                 self.counters.count("handshake_noise")
+                fenced = False
+                continue
             sent = self._clock()
             self.write(encode_read_encoders())
             try:
@@ -459,14 +513,18 @@ class SerialLink:
             except ReadTimeoutError:
                 verified, last_error = 0, f"no reply to 'e' within {config.read_timeout_s:g} s"
                 self.counters.count("handshake_noise")
+                fenced = False
                 continue
             except ReplyError as error:
                 verified, last_error = 0, f"{error.kind}: {error.reason}"
                 self.counters.count("handshake_noise")
                 if error.kind == "invalid_command":
                     self.counters.count("invalid_command")
+                fenced = False
                 continue
+            replied = self._clock()
+            self.last_good_s = replied
             verified += 1
             if verified >= 2:
-                self._probes_in_flight = 0  # answered in order: the probes before are done
-                return pair, sent + self.request_s(encode_read_encoders())
+                self._probes.clear()  # answered in order: the probes before are done
+                return pair, sent + self.request_s(encode_read_encoders()), replied
