@@ -2,7 +2,9 @@
 
 The tail from ``--config`` (or ``--mechanism``) and the geometry flags, the fish from ``--fish``
 and one flag per fish parameter, the links' masses from the tail's file; flags win, every value
-checked by its spec. docs/swimming-dynamics.md ("Command line").
+checked by its spec. A ``--config`` file is the suite's (``--params-file`` of every node): it may
+hold any node's parameters, and a name that no node of the suite declares is refused, as a name
+that is not a fish parameter is in ``--fish``. docs/swimming-dynamics.md ("Command line").
 """
 
 from __future__ import annotations
@@ -17,23 +19,51 @@ from fishtail_common.command_line import (
     add_parameter_flags,
     add_parameter_options,
 )
-from fishtail_common.parameter_files import default_parameter_file, load_parameter_file
+from fishtail_common.parameter_files import (
+    ParameterFileError,
+    default_parameter_file,
+    load_parameter_file,
+)
+from fishtail_driver.parameters import DRIVER_PARAMETERS
 from fishtail_kinematics.engine.geometry import GEOMETRY_PARAMETERS
+from fishtail_kinematics.engine.input_guard import (
+    GUARD_PARAMETERS,
+    MAX_CARRIER_SPEED,
+    MOTOR_JOINT_NAME,
+    STALE_TIMEOUT,
+)
 from fishtail_kinematics.engine.mechanisms import Tail, make_tail
 from fishtail_kinematics.engine.parameters import (
     MECHANISM,
     geometry_from_parameters,
     geometry_parameters_in,
 )
+from fishtail_kinematics.engine.swimming import SWIMMING_PARAMETERS
+from fishtail_kinematics.engine.symmetry import SYMMETRY_PARAMETERS
+from fishtail_pilot.pilot import CONTROL_PARAMETERS
+from fishtail_pilot.steering import STEERING_PARAMETERS
 from fishtail_plant.fish.fish import FISH_PARAMETERS, FishParameters
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
-from fishtail_plant.values import link_inertia_from_values, read_fish_values
+from fishtail_plant.values import (
+    LOAD_PARAMETERS,
+    TAIL_PARAMETERS,
+    link_inertia_from_values,
+    read_fish_values,
+)
 
 PROGRAM = "fishtail-swim"
 #: The fish's parameter file, under config/ of the workspace or of the install.
 FISH_FILE = "fish"
 #: The tail's parameter file when neither --config nor --mechanism says otherwise.
 DEFAULT_MECHANISM = "oscillatory"
+#: Parameters of the suite's nodes whose specs live in the node modules (which import ROS; this
+#: reader does not), and those rclpy declares in every node. test_cli_config_names.py checks
+#: :func:`suite_parameter_names` against the nodes' own PARAMETERS.
+NODE_MODULE_NAMES = frozenset({
+    "beat_timeout_sec", "control_rate_hz", "frame_id", "markers_path_length", "markers_rate_hz",
+    "markers_trail_length", "max_step_sec", "odom_timeout_sec", "publish_tf",
+})  # fmt: skip
+ROS_NAMES = frozenset({"use_sim_time", "start_type_description_service"})
 
 
 class Swimmer(NamedTuple):
@@ -58,6 +88,32 @@ def swimmer_arguments() -> OneLineErrorParser:
     fish.add_argument("--fish", type=Path, help="fish parameter file (default config/fish.yaml)")
     add_parameter_flags(fish, FISH_PARAMETERS)
     return parent
+
+
+def suite_parameter_names() -> frozenset[str]:
+    """Every parameter name that a node of the suite (driver ... pilot) declares."""
+    specs = (
+        *DRIVER_PARAMETERS, *LOAD_PARAMETERS, *TAIL_PARAMETERS, *FISH_PARAMETERS,
+        *GUARD_PARAMETERS, STALE_TIMEOUT, MAX_CARRIER_SPEED, MOTOR_JOINT_NAME,
+        *SYMMETRY_PARAMETERS, *SWIMMING_PARAMETERS, *STEERING_PARAMETERS, *CONTROL_PARAMETERS,
+    )  # fmt: skip
+    return frozenset(spec.name for spec in specs) | NODE_MODULE_NAMES | ROS_NAMES
+
+
+def read_config_file(path: Path) -> dict[str, object]:
+    """The parameters of a ``--config`` file, every name one that a node of the suite declares.
+
+    Raises:
+        ParameterFileError: naming the file, for one that cannot be read or an unknown name.
+    """
+    values = load_parameter_file(path)
+    known = suite_parameter_names()
+    for name in values:
+        if str(name) not in known:
+            raise ParameterFileError(
+                f"{path}: unknown parameter {name!r} (no node of the suite declares it)"
+            )
+    return values
 
 
 def _default_file(name: str) -> Path:
@@ -88,7 +144,7 @@ def link_inertia_from_arguments(arguments: argparse.Namespace) -> LinkInertia:
         UsageError: no such file.
         ParameterValueError: an unreadable file or a value out of range.
     """
-    return link_inertia_from_values(load_parameter_file(_config_file(arguments)))
+    return link_inertia_from_values(read_config_file(_config_file(arguments)))
 
 
 def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
@@ -100,7 +156,7 @@ def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
         FishtailKinematicsError: a geometry that does not assemble.
     """
     config = _config_file(arguments)
-    geometry_values: dict[str, object] = dict(geometry_parameters_in(load_parameter_file(config)))
+    geometry_values: dict[str, object] = dict(geometry_parameters_in(read_config_file(config)))
     if arguments.mechanism is not None:
         geometry_values[MECHANISM.name] = arguments.mechanism
     for spec in GEOMETRY_PARAMETERS:
