@@ -4,17 +4,27 @@ Each node runs as its own process (``python -m <module> --ros-args ...``), or, w
 ``one_process``, the nodes that ``fishtail-one-process`` hosts share one process, each with the
 same ROS arguments as on its own; every process gets its own process group, so that one signal
 reaches all of it.
+
+The driver's and the pilot's own ``NAME:=VALUE`` items go in a parameter file of their own, last,
+in a ``/**/<node>`` section. ``-p NAME:=VALUE`` joins the ``/**`` section of the files, and ROS
+applies the sections in the order they first appear: after a ``--config`` file with ``/**`` and
+then ``driver:``, the file's value won. ``-p driver:NAME:=VALUE`` cannot name a node in a namespace.
 """
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
+
+import yaml
 
 from fishtail_bringup.one_process import END_OF_ROS_ARGS, HOSTABLE
 from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SuiteNode
@@ -58,6 +68,7 @@ class Supervisor:
         self.namespace = namespace
         self.driver_params = driver_params
         self.processes: dict[str, subprocess.Popen] = {}
+        self._override_dir: Path | None = None
         self.print_lock = threading.Lock()
         self.clear_line = ""
 
@@ -83,12 +94,37 @@ class Supervisor:
         if self.namespace:
             command += ["-r", f"__ns:=/{self.namespace.strip('/')}"]
         if node.package == "fishtail_driver":
-            for item in self.driver_params:
-                command += ["-p", item]
+            command += self.overrides(node, self.driver_params)
         if node == PILOT_NODE:
-            for item in self.pilot_params:
-                command += ["-p", item]
+            command += self.overrides(node, self.pilot_params)
         return command
+
+    def overrides(self, node: SuiteNode, items: list[str]) -> list[str]:
+        """``--params-file`` of a file with ``items`` in a ``/**/<node>`` section (see above).
+
+        An item that is not ``NAME:=VALUE`` stays ``-p ITEM``, for ROS to refuse in its words.
+        """
+        values: dict[str, object] = {}
+        malformed: list[str] = []
+        for item in items:
+            name, separator, text = item.partition(":=")
+            try:
+                value = yaml.safe_load(text) if separator and name else None
+            except yaml.YAMLError:
+                value = None
+            if not isinstance(value, (bool, int, float, str, list)):
+                malformed += ["-p", item]
+            else:
+                values[name] = value
+        if not values:
+            return malformed
+        if self._override_dir is None:
+            self._override_dir = Path(tempfile.mkdtemp(prefix="fishtail-run-"))
+            atexit.register(shutil.rmtree, self._override_dir, True)
+        path = self._override_dir / f"{node.name}.yaml"
+        document = {f"/**/{node.name}": {"ros__parameters": values}}
+        path.write_text(yaml.safe_dump(document, sort_keys=False), encoding="utf-8")
+        return ["--params-file", str(path), *malformed]
 
     def commands(self) -> dict[str, list[str]]:
         """The processes to start, by label: a node each, or one for the hostable nodes.

@@ -5,9 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import rclpy
+import yaml
+from rclpy.context import Context
 
 from fishtail_bringup.run import Supervisor, main, motor_parameters
-from fishtail_common.interface import SUITE_NODES, SWIM_NODE
+from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE
 
 CONFIG = Path("config/oscillatory.yaml")
 FISH = Path("config/fish.yaml")
@@ -34,14 +37,57 @@ def test_a_loaded_driver_reads_the_fish_and_its_own_parameters_come_last():
     assert driver[driver.index("--ros-args") + 1 :][:4] == [
         "--params-file", str(CONFIG), "--params-file", str(FISH),
     ]  # fmt: skip
-    # The last of two -p for one name is the one ROS applies: --driver-param overrides --motor.
-    items = [driver[i + 1] for i, word in enumerate(driver) if word == "-p"]
-    assert items[-2:] == ["motor_load:=water_held", "gear_ratio:=18.75"]
+    # The driver's own parameters: a file of their own, last; --driver-param overrides --motor.
+    assert driver[-2] == "--params-file"
+    assert yaml.safe_load(Path(driver[-1]).read_text()) == {
+        "/**/driver": {"ros__parameters": {
+            "motor_model": "dc", "gear_ratio": 18.75, "encoder_counts_per_revolution": 64,
+            "motor_load": "water_held",
+        }},
+    }  # fmt: skip
     assert str(FISH) in commands["swim"]
     # The monitor's swimming figures use the simulator's fin; the kinematics needs no fish.
     assert str(FISH) in commands["monitor"] and str(FISH) not in commands["kinematics"]
     unloaded = Supervisor(CONFIG, "", [], SUITE_NODES, FISH).command_for(SUITE_NODES[0])
     assert str(FISH) not in unloaded
+
+
+@pytest.mark.parametrize("namespace", ["", "fish"])
+@pytest.mark.parametrize("section", ["/**", "driver", "/**/driver", "/fish/driver"])
+def test_driver_and_pilot_parameters_win_over_any_section_of_the_config(
+    tmp_path, namespace, section
+):
+    # A config as the suite's begin, "/**" first, then a section for the node: ROS merged the
+    # -p NAME:=VALUE into "/**", which it applied before the node's section, so it lost.
+    config = tmp_path / "config.yaml"
+    text = "/**:\n  ros__parameters:\n    joint_name: wild\n    control_rate_hz: 1.0\n"
+    if section != "/**":
+        pilot_section = section.replace("driver", "pilot")
+        text += f"{section}:\n  ros__parameters:\n    joint_name: from_file\n"
+        text += f"{pilot_section}:\n  ros__parameters:\n    control_rate_hz: 5.0\n"
+    config.write_text(text)
+    supervisor = Supervisor(
+        config, namespace, ["joint_name:=abc"], (*SUITE_NODES, PILOT_NODE),
+        pilot_params=["control_rate_hz:=12.5"],
+    )  # fmt: skip
+    for node, name, expected in (
+        (SUITE_NODES[0], "joint_name", "abc"),
+        (PILOT_NODE, "control_rate_hz", 12.5),
+    ):
+        context = Context()
+        rclpy.init(args=supervisor.ros_arguments_for(node), context=context)
+        try:
+            ros_node = rclpy.create_node(node.name, context=context)
+            assert ros_node.get_namespace() == f"/{namespace}"
+            assert ros_node.declare_parameter(name, type(expected)()).value == expected
+            ros_node.destroy_node()
+        finally:
+            context.try_shutdown()
+
+
+def test_an_item_that_is_not_name_value_is_left_to_ros():
+    supervisor = Supervisor(CONFIG, "", ["gear_ratio"], SUITE_NODES)
+    assert supervisor.ros_arguments_for(SUITE_NODES[0])[-2:] == ["-p", "gear_ratio"]
 
 
 def test_a_load_without_the_dc_motor_is_a_usage_error(capsys):
