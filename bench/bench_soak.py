@@ -21,9 +21,8 @@ bench/out/bench_soak.json):
 Figures only, no targets. `make bench` runs a short soak (SHORT_MINUTES, or SOAK_MINUTES from the
 environment); the 30-minute soak: ``SOAK_MINUTES=30 make bench`` (every benchmark), or alone
 ``source tools/env.sh && PYTHONPATH=test/support:$PYTHONPATH python bench/bench_soak.py``
-(``--minutes 30``
-is its default when run by hand; ``--minutes 3`` for a quick one). It ends by itself: about
-a minute of start-up and warm-up more than the minutes asked.
+(``--minutes 30`` is its default when run by hand; ``--minutes 3`` for a quick one). It ends by
+itself: about a minute of start-up and warm-up more than the minutes asked.
 """
 
 from __future__ import annotations
