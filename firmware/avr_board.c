@@ -32,6 +32,7 @@
  * SIGHUP, or at end of input with --exchange.
  */
 #include <errno.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -344,7 +345,17 @@ int main(int argc, char **argv)
 	 * (8-bit phase-correct PWM), which it does not model; the OCRs are read here directly. */
 	avr->log = LOG_ERROR;
 
+	/* uart_pty's reader thread inherits this mask: a signal it took would end its select() loop
+	 * and leave the board deaf, so only this thread takes them. */
+	sigset_t handled, previous;
+	sigemptyset(&handled);
+	sigaddset(&handled, SIGINT);
+	sigaddset(&handled, SIGTERM);
+	sigaddset(&handled, SIGHUP);
+	sigaddset(&handled, SIGUSR1);
+	pthread_sigmask(SIG_BLOCK, &handled, &previous);
 	uart_pty_init(avr, &uart);
+	pthread_sigmask(SIG_SETMASK, &previous, NULL);
 	uart_pty_connect(&uart, '0');
 	/* The firmware enables the pull-ups: the encoder pins read high until the encoder drives
 	 * them; state 0 of the Gray sequence is (0, 0), so show it from the start. */
@@ -357,6 +368,9 @@ int main(int argc, char **argv)
 	sigaction(SIGINT, &action, NULL);
 	sigaction(SIGTERM, &action, NULL);
 	sigaction(SIGHUP, &action, NULL);
+	/* A reset must not interrupt the wait for the motor model's answer: an EINTR there would
+	 * read as the end of the exchange and stop the simulator. */
+	action.sa_flags = SA_RESTART;
 	sigaction(SIGUSR1, &action, NULL);
 	signal(SIGPIPE, SIG_IGN);
 

@@ -316,12 +316,12 @@ import json
 import sys
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from fishtail_common.ros import install_stop_handlers, spin_until
 from fishtail_msgs.msg import SymmetryReport, TailState
 
 speed, period = float(sys.argv[1]), float(sys.argv[2])
@@ -351,7 +351,8 @@ def on_report(message):
     emit(kind="beat", index=message.beat_index, verdict=message.verdict, period=message.period)
 
 
-rclpy.init()
+stop = install_stop_handlers()  # rclpy's own handler would shut the context mid-spin
+rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
 node = rclpy.create_node("shore_probe")
 sensor = QoSProfile(depth=1000)  # best effort like the publishers, deep enough not to drop
 sensor.reliability = qos_profile_sensor_data.reliability
@@ -361,15 +362,9 @@ node.create_subscription(TailState, "tail/state", on_tail, sensor)
 node.create_subscription(SymmetryReport, "tail/symmetry", on_report, 50)
 publisher = node.create_publisher(Float64, "motor/cmd_speed", 10)
 node.create_timer(period, lambda: publisher.publish(Float64(data=speed)))
-executor = EventsExecutor()
-executor.add_node(node)
 try:
-    while rclpy.ok():
-        executor.spin_once(timeout_sec=0.1)
-except (KeyboardInterrupt, ExternalShutdownException):
-    pass
+    spin_until([node], stop)
 finally:
-    executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown()
 '''

@@ -133,6 +133,42 @@ def test_the_cli_starts_the_counts_high_and_resets_on_sigusr1(avr_board, raw_por
     assert port.ask("b") == "57600"
 
 
+def test_a_reset_while_the_simulator_waits_for_its_motors_does_not_end_it(
+    firmware_build, raw_port, tmp_path
+):
+    """SIGUSR1 sent while the simulator waits for the motor side's answer: it boots, runs on.
+
+    The motor side sends the reset from inside its answer, so the signal always lands while the
+    simulator is blocked reading that answer (on a loaded host, where it spends most of its time).
+    """
+    reset_sent = threading.Event()
+    board_holder: list[SimulatedBoard] = []
+
+    def observe(now_us: int, pwm: tuple[int, int], watched: tuple[int, ...]) -> None:
+        if now_us >= 50_000 and board_holder and not reset_sent.is_set():
+            board_holder[0].reset()
+            time.sleep(0.05)  # the signal is delivered before the answer goes out
+            reset_sent.set()
+
+    motors = [DcChannelMotor(DC_PARAMETERS, SCALE) for _ in range(2)]
+    with open(tmp_path / "sim.stderr", "wb") as stderr:
+        board = SimulatedBoard(motors, tmp_path / "board", firmware_build,
+                               observer=observe, stderr=stderr)  # fmt: skip
+    board_holder.append(board)
+    try:
+        assert board.ready.wait(10.0), "the simulator did not start"
+        assert reset_sent.wait(30.0), "the reset was never sent"
+        deadline = time.monotonic() + 30.0
+        while board.process.poll() is None and board.simulated_s() < 0.2:
+            assert time.monotonic() < deadline, "the simulator stands still after the reset"
+            time.sleep(0.01)
+        assert board.process.poll() is None, "the reset ended the simulator"
+        port = raw_port(tmp_path / "board")
+        assert port.ask("b") == "57600", "the board did not answer after the reset"
+    finally:
+        board.stop()
+
+
 #: A scripted run: (simulated seconds, left and right ticks per frame). Opposite signs, a stop
 #: mid-run (m 0 0, the loop reset), a restart beyond the motor's speed (the PWM saturates at 255,
 #: the integral clamp), and at the end no command for over 2 s: the firmware's auto-stop, without
