@@ -23,7 +23,7 @@ from fishtail_plant.errors import SwimInputError
 from fishtail_plant.fish.figures import tail_power
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.integrator import Stepper
-from fishtail_plant.fish.model import PSI, STATE_SIZE, SwimModel, X, Y
+from fishtail_plant.fish.model import PSI, STATE_SIZE, SURGE, SwimModel, X, Y
 from fishtail_plant.fish.tail_drive import EngineTailDrive
 
 TWO_PI = 2.0 * math.pi
@@ -35,6 +35,13 @@ _MIN_SEGMENT_S = 1e-12
 MAX_STEP_ANGLE_RAD = TWO_PI / 16
 #: Default cap on the sub-steps of one sample: the work per sample is bounded (a few ms compiled).
 DEFAULT_MAX_SUB_STEPS = 1000
+#: The most beats of history given to a fish that joins a carrier already turning: a fish from
+#: rest is in its periodic state to 1e-6 after about 60 beats, whatever the speed.
+JOIN_HISTORY_BEATS = 100
+#: RK4 steps per beat of that history (the library's checks use 16 to 48).
+JOIN_STEPS_PER_BEAT = 32
+#: The history stops early once a beat changes the body velocities by less than this, relatively.
+JOIN_CONVERGED = 1e-9
 
 
 class StampNotIncreasingError(ValueError):
@@ -189,6 +196,7 @@ class SwimFollower:
         self.max_speed_rad_s = max_speed_rad_s
         self.max_sub_steps = max_sub_steps
         self.carrier = LinearCarrier()
+        self.tail = tail
         self.model = SwimModel(fish, EngineTailDrive(tail, self.carrier))
         self._stepper = Stepper(self.model, 1)
         self._body_length_m = float(fish.body_length_m)
@@ -228,8 +236,14 @@ class SwimFollower:
         # Each beat boundary may add one sub-step to either count.
         return by_time + by_angle + math.ceil(max(advance_rad, 0.0) / TWO_PI) + 1
 
-    def follow(self, stamp_ns: int, angle_rad: float) -> bool:
+    def follow(self, stamp_ns: int, angle_rad: float, speed_rad_s: float = 0.0) -> bool:
         """Integrate up to the sample at ``stamp_ns`` (after the previous one) with its angle.
+
+        The first sample starts the fish at the origin, at rest unless the carrier is already
+        turning: with ``speed_rad_s`` (the sample's velocity) above 0 and a positive angle, the
+        fish starts with the body velocities it would have had the carrier turned at that speed
+        since its angle was 0 (:meth:`joined_state`), so that when this follower starts, late or
+        early, changes little. Later samples ignore ``speed_rad_s``.
 
         All or nothing: when the engine or the dynamics raise within the interval, the follower
         is left as it was, so the next sample integrates from the last one that succeeded. The
@@ -253,6 +267,7 @@ class SwimFollower:
         if not math.isfinite(angle_rad):
             raise ValueError(f"carrier angle {angle_rad!r} is not finite")
         if self.time_s is None:
+            self.state = self.joined_state(angle_rad, speed_rad_s)
             self.first_stamp_ns = self._last_stamp_ns = stamp_ns
             self.time_s = 0.0
             self.angle_rad = angle_rad
@@ -319,7 +334,59 @@ class SwimFollower:
         self.time_s, self.angle_rad = end_time, angle_rad
         return True
 
-    def restart(self, stamp_ns: int, angle_rad: float) -> None:
+    def joined_state(self, angle_rad: float, speed_rad_s: float) -> FloatArray:
+        """The fish's state (1, 6) at the origin when it joins a carrier at ``speed_rad_s``.
+
+        At rest unless the carrier turns (at most at its top speed) and ``angle_rad`` is
+        positive; then the body velocities (u, v, r) of a fish that started from rest when the
+        carrier's angle was 0 and has turned at ``speed_rad_s`` since (at most
+        :data:`JOIN_HISTORY_BEATS` beats back; fewer once the beats repeat). Pose at the origin.
+
+        Raises:
+            SwimInputError: the dynamics diverged over that history.
+        """
+        state = np.zeros((1, STATE_SIZE))
+        if not (0.0 < speed_rad_s <= self.max_speed_rad_s and angle_rad > 0.0):
+            return state
+        history_rad = min(angle_rad, JOIN_HISTORY_BEATS * TWO_PI)
+        start_s = -history_rad / speed_rad_s
+        self.carrier.set(start_s, angle_rad - history_rad, speed_rad_s)
+        step_s = TWO_PI / JOIN_STEPS_PER_BEAT / speed_rad_s
+        # A part beat first, then whole beats: each ends at the joining sample's phase, so that
+        # two in a row can be compared for the periodic state.
+        steps_left = math.ceil(history_rad / TWO_PI * JOIN_STEPS_PER_BEAT - 1e-9)
+        chunk = steps_left % JOIN_STEPS_PER_BEAT or JOIN_STEPS_PER_BEAT
+        records = np.empty((2, 1, STATE_SIZE))
+        time_s = start_s
+        previous = state[0, SURGE:]
+        while steps_left > 0:
+            state = self._stepper.advance(state, time_s, 0, chunk, step_s, chunk, records)
+            if not np.isfinite(state).all():
+                raise SwimInputError("the integration diverged over the carrier's history")
+            time_s += chunk * step_s
+            steps_left -= chunk
+            chunk = JOIN_STEPS_PER_BEAT
+            change = float(np.abs(state[0, SURGE:] - previous).max())
+            if change <= JOIN_CONVERGED * float(np.abs(state[0, SURGE:]).max()):
+                break
+            previous = state[0, SURGE:]
+        state = state.copy()
+        state[0, [X, Y, PSI]] = 0.0
+        return state
+
+    def warm_up(self) -> None:
+        """Compile now (or load from numba's cache) what following needs; the state is untouched.
+
+        A throwaway fish with the same tail follows one beat: the first samples of a stream
+        must not wait seconds for the compiler while later ones pile up and are lost.
+        """
+        rehearsal = SwimFollower(self.tail, self.fish, self.max_step_s)
+        speed = 0.5 * self.max_speed_rad_s
+        rehearsal.follow(0, TWO_PI, speed)
+        for stamp_ns in (1_000_000, round(TWO_PI / speed * 1e9)):
+            rehearsal.follow(stamp_ns, TWO_PI + speed * stamp_ns * 1e-9)
+
+    def restart(self, stamp_ns: int, angle_rad: float, speed_rad_s: float = 0.0) -> None:
         """Follow the carrier afresh from this sample, whatever its stamp and angle.
 
         For a stream that restarted (a restarted driver, a replayed recording): the carrier's
@@ -327,6 +394,7 @@ class SwimFollower:
         sample and the beat in progress is abandoned, as after a gap; the fish keeps its state.
         A stamp at or before the previous one moves the fish's time 0 (``first_stamp_ns``) by as
         much, so the fish's time stands still across the restart instead of going back.
+        Before the first sample it is that sample (:meth:`follow`, with ``speed_rad_s``).
 
         Raises:
             ValueError: a non-finite angle.
@@ -334,7 +402,7 @@ class SwimFollower:
         if not math.isfinite(angle_rad):
             raise ValueError(f"carrier angle {angle_rad!r} is not finite")
         if self.time_s is None:
-            self.follow(stamp_ns, angle_rad)
+            self.follow(stamp_ns, angle_rad, speed_rad_s)
             return
         if stamp_ns <= self._last_stamp_ns:
             self.first_stamp_ns += stamp_ns - self._last_stamp_ns
@@ -348,6 +416,7 @@ class SwimFollower:
         the change takes effect at a sample, a step in the tail's motion no larger than the
         actuator's travel in one sample interval.
         """
+        self.tail = tail
         self.model = SwimModel(self.fish, EngineTailDrive(tail, self.carrier))
         self._stepper = Stepper(self.model, 1)
 

@@ -157,6 +157,7 @@ class SimNode(SuiteNodeBase):
             max_interval_s=self.stale_timeout_s,
             max_speed_rad_s=self.max_carrier_speed,
         )
+        self.follower.warm_up()  # before subscribing: no sample waits for the compiler
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
         self.carrier_joint = CarrierJoint(self.motor_joint_name)
         self.guard = CarrierGuard()
@@ -284,11 +285,11 @@ class SimNode(SuiteNodeBase):
                     follower.restart(*rebased_from)
                     taken = follower.follow(stamp_ns, angle)
                 elif fresh and not self._continues(stamp_ns, angle):
-                    follower.restart(stamp_ns, angle)
+                    follower.restart(stamp_ns, angle, velocity)
                 else:
                     # Also after a pause of this node: samples that continue the stream are
                     # integrated, whenever they arrive.
-                    taken = follower.follow(stamp_ns, angle)
+                    taken = follower.follow(stamp_ns, angle, velocity)
             except CarrierJumpError as error:
                 # Only where the follower's reference is not the guard's (a refused sample, a
                 # pause): the guard took this sample as its reference, so does the fish.
