@@ -175,9 +175,7 @@ def test_launch_one_process_in_a_namespace_with_the_dc_motor(start_process, ros)
         "gear_ratio",
     )  # fmt: skip
     assert "30.0" in gear.stdout, gear.stdout + gear.stderr
-    listed = run_cli(
-        "param", "list", "--no-daemon", "--spin-time", "5", "/fish1/kinematics"
-    )
+    listed = run_cli("param", "list", "--no-daemon", "--spin-time", "5", "/fish1/kinematics")
     assert "mechanism" in listed.stdout and "gear_ratio" not in listed.stdout, listed.stderr
     launch.send_signal(signal.SIGINT)
     status = launch.wait(LAUNCH_EXIT_TIMEOUT_S)
@@ -186,6 +184,37 @@ def test_launch_one_process_in_a_namespace_with_the_dc_motor(start_process, ros)
     assert "[INFO] [fishtail-one-process-1]: process has finished cleanly" in output, output
     assert output.count("]: process started with pid") == 1, output
     assert "motor commanded to stop" in output, output
+
+
+@pytest.mark.parametrize("one_process", ["false", "true"])
+def test_launch_arguments_win_over_the_params_file_and_the_file_over_the_motor_defaults(
+    start_process, ros, config_dir, tmp_path, one_process
+):
+    """A user's file that names the driver loses to ``motor_model:=dc`` and beats its defaults.
+
+    Its ``driver:`` section sets ``motor_model`` (the launch argument must win, not the file); its
+    ``/**`` section sets the encoder, which ``motor_model:=dc`` only defaults (the file must win).
+    """
+    document = yaml.safe_load((config_dir / "oscillatory.yaml").read_text(encoding="utf-8"))
+    document["/**"]["ros__parameters"]["encoder_counts_per_revolution"] = 100
+    document["driver"] = {"ros__parameters": {"motor_model": "first_order"}}
+    user_file = tmp_path / "my_tail.yaml"
+    user_file.write_text(yaml.safe_dump(document), encoding="utf-8")
+    start_process(
+        "launch",
+        launch_argv(f"params_file:={user_file}", "motor_model:=dc", f"one_process:={one_process}"),
+    )
+    ros.wait_for_subscribers("motor/cmd_speed")
+
+    def driver_parameter(name: str) -> str:
+        result = run_cli(
+            "param", "get", "--no-daemon", "--timeout", str(CLI_TIMEOUT_S), "/driver", name
+        )
+        return result.stdout + result.stderr
+
+    assert "String value is: dc" in driver_parameter("motor_model")
+    assert "Integer value is: 100" in driver_parameter("encoder_counts_per_revolution")
+    assert "Double value is: 30.0" in driver_parameter("gear_ratio")  # the DC motor's gearbox
 
 
 def test_ros2_run_and_param_set_of_an_infeasible_geometry(start_process, ros, config_dir):

@@ -5,21 +5,17 @@ Each node runs as its own process (``python -m <module> --ros-args ...``), or, w
 same ROS arguments as on its own; every process gets its own process group, so that one signal
 reaches all of it.
 
-The driver's and the pilot's own ``NAME:=VALUE`` items go in a parameter file of their own, last,
-in a ``/**/<node>`` section. ``-p NAME:=VALUE`` joins the ``/**`` section of the files, and ROS
-applies the sections in the order they first appear: after a ``--config`` file with ``/**`` and
-then ``driver:``, the file's value won. ``-p driver:NAME:=VALUE`` cannot name a node in a namespace.
+The driver's and the pilot's own ``NAME:=VALUE`` items go in a parameter file of their own, last
+(:mod:`fishtail_bringup.own_parameters`: why). ``-p driver:NAME:=VALUE`` cannot name a node in a
+namespace.
 """
 
 from __future__ import annotations
 
-import atexit
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -27,6 +23,7 @@ from pathlib import Path
 import yaml
 
 from fishtail_bringup.one_process import END_OF_ROS_ARGS, HOSTABLE
+from fishtail_bringup.own_parameters import write_own_parameters
 from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SuiteNode
 
 SHUTDOWN_WAIT_S = 5.0
@@ -68,9 +65,9 @@ class Supervisor:
         self.namespace = namespace
         self.driver_params = driver_params
         self.processes: dict[str, subprocess.Popen] = {}
-        self._override_dir: Path | None = None
         self.print_lock = threading.Lock()
         self.clear_line = ""
+        self._own_files: dict[tuple[str, str], Path] = {}
 
     def command_for(self, node: SuiteNode) -> list[str]:
         """The command line of one node in its own process."""
@@ -118,13 +115,11 @@ class Supervisor:
                 values[name] = value
         if not values:
             return malformed
-        if self._override_dir is None:
-            self._override_dir = Path(tempfile.mkdtemp(prefix="fishtail-run-"))
-            atexit.register(shutil.rmtree, self._override_dir, True)
-        path = self._override_dir / f"{node.name}.yaml"
-        document = {f"/**/{node.name}": {"ros__parameters": values}}
-        path.write_text(yaml.safe_dump(document, sort_keys=False), encoding="utf-8")
-        return ["--params-file", str(path), *malformed]
+        # One file per node and values: every command for the node names the same one.
+        key = (node.name, yaml.safe_dump(values))
+        if key not in self._own_files:
+            self._own_files[key] = write_own_parameters(node.name, values)
+        return ["--params-file", str(self._own_files[key]), *malformed]
 
     def commands(self) -> dict[str, list[str]]:
         """The processes to start, by label: a node each, or one for the hostable nodes.

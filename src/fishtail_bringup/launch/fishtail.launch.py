@@ -18,6 +18,7 @@ Machines without ros2 launch use ``fishtail-run``. README.md ("With a system ROS
 
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
+from launch.substitution import Substitution
 from launch.substitutions import (
     AndSubstitution,
     EqualsSubstitution,
@@ -27,9 +28,11 @@ from launch.substitutions import (
     OrSubstitution,
     PathJoinSubstitution,
 )
+from launch.utilities import normalize_to_list_of_substitutions, perform_substitutions
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
+from fishtail_bringup.own_parameters import write_own_parameters
 from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, VIEW_NODE
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
 from fishtail_pilot.steering import PIVOT_STEERING, STEERING
@@ -47,6 +50,29 @@ def dc_motor_encoder(motor_model):
         name: IfElseSubstitution(is_dc, repr(value), repr(SPECS[name].default))
         for name, value in DC_MOTOR_ENCODER.items()
     }
+
+
+class OwnParameterFile(Substitution):
+    """A parameter file of ``node_name``'s own with ``values`` (launch arguments): its path.
+
+    Given last, it wins over ``params_file`` whatever its sections say; a parameter dict would
+    join the ``/**`` section and lose to a ``driver:`` section there (own_parameters.py).
+    """
+
+    def __init__(self, node_name, values):
+        """``values``: parameter name to substitutions, evaluated when the launch runs."""
+        super().__init__()
+        self.node_name = node_name
+        self.values = {name: normalize_to_list_of_substitutions(v) for name, v in values.items()}
+
+    def describe(self):
+        """For launch's messages."""
+        return f"OwnParameterFile({self.node_name!r}, {sorted(self.values)})"
+
+    def perform(self, context):
+        """Write the file; its path."""
+        values = {name: perform_substitutions(context, v) for name, v in self.values.items()}
+        return str(write_own_parameters(self.node_name, values))
 
 
 def one_process_arguments(nodes, parameters):
@@ -98,15 +124,19 @@ def generate_launch_description():
     }
     # The driver declares the fish's parameters only with a motor_load; without one it ignores
     # them, as every node ignores the parameters of a file that it does not declare.
-    driver_parameters = [dc_motor_encoder(motor_model), params_file, fish_params_file, driver]
     parameters = {
         node: [params_file, fish_params_file] if node.reads_fish_file else [params_file]
         for node in (*SUITE_NODES, SWIM_NODE, PILOT_NODE)
     }
-    parameters.update(
-        {node: driver_parameters for node in SUITE_NODES if node.package == "fishtail_driver"}
-    )
-    parameters[PILOT_NODE].append({STEERING.name: steering})
+    for node in SUITE_NODES:
+        if node.package == "fishtail_driver":
+            parameters[node] = [
+                dc_motor_encoder(motor_model),
+                params_file,
+                fish_params_file,
+                OwnParameterFile(node.name, driver),
+            ]
+    parameters[PILOT_NODE].append(OwnParameterFile(PILOT_NODE.name, {STEERING.name: steering}))
     one_process = LaunchConfiguration("one_process")
     # The pilot flies the simulated fish: it brings the simulator.
     swim = OrSubstitution(LaunchConfiguration("swim"), pilot)

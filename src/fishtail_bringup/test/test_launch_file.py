@@ -13,6 +13,7 @@ import ast
 from pathlib import Path
 
 import pytest
+import yaml
 
 # launch_ros first: this package's own launch/ folder makes ``import launch`` succeed as an empty
 # namespace package wherever the package directory is on the path.
@@ -40,6 +41,13 @@ SRC = Path(__file__).resolve().parents[2]
 LAUNCH_FILE = SRC / "fishtail_bringup" / "launch" / "fishtail.launch.py"
 
 
+def own_values(path, node: str) -> dict:
+    """The values of ``node``'s own parameter file (the launch arguments, given last)."""
+    document = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+    assert list(document) == [f"/**/{node}"], document
+    return document[f"/**/{node}"]["ros__parameters"]
+
+
 def console_scripts(package: str) -> set[str]:
     """Executable names a package's setup.py declares (read, not run)."""
     tree = ast.parse((SRC / package / "setup.py").read_text())
@@ -50,9 +58,9 @@ def console_scripts(package: str) -> set[str]:
     return names
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def description():
-    """The launch description, as ``ros2 launch`` loads it."""
+    """The launch description, as ``ros2 launch`` loads it; fresh, as its files evaluate once."""
     return get_launch_description_from_python_launch_file(str(LAUNCH_FILE))
 
 
@@ -183,11 +191,14 @@ def test_one_process_hosts_the_nodes_with_their_own_parameters(description, swim
     own = {node.name: words for node, words in nodes}
     expected = [*SUITE_NODES, SWIM_NODE] if swim == "true" else list(SUITE_NODES)
     assert [node for node, _ in nodes] == expected
-    assert own["driver"] == [
+    *driver_words, own_file = own["driver"]
+    assert driver_words == [
         "--ros-args", "-p", "gear_ratio:=30.0", "-p", "encoder_counts_per_revolution:=64",
-        "--params-file", "tail.yaml", "--params-file", "fish.yaml", "-p", "backend:=sim",
-        "-p", "motor_model:=dc", "-p", "motor_load:=water_held", "-p", "pivot_actuator:=none",
+        "--params-file", "tail.yaml", "--params-file", "fish.yaml", "--params-file",
     ]  # fmt: skip
+    assert own_values(own_file, "driver") == {
+        "backend": "sim", "motor_model": "dc", "motor_load": "water_held", "pivot_actuator": "none"
+    }  # fmt: skip
     assert own["kinematics"] == ["--ros-args", "--params-file", "tail.yaml"]
     # The monitor's swimming figures use the simulator's fin.
     assert own["monitor"] == [
@@ -215,11 +226,11 @@ def test_pilot_adds_the_simulator_and_the_pilot_with_its_steering(description, s
     assert {"driver", "node", "monitor", "sim", "pilot"} <= set(launched)
     assert "pilot" in console_scripts("fishtail_swim")
     # launch_ros keeps a Node's parameters private until it runs: read them where it keeps them.
-    (*files, pilot_values) = evaluate_parameters(
+    (*files, pilot_file) = evaluate_parameters(
         context, normalize_parameters(launched["pilot"]._Node__parameters)
     )
-    assert pilot_values == {"steering": steering}
-    driver_values = evaluate_parameters(
+    assert own_values(pilot_file, "pilot") == {"steering": steering}
+    driver_file = evaluate_parameters(
         context, normalize_parameters(launched["driver"]._Node__parameters)
     )[-1]
-    assert driver_values["pivot_actuator"] == actuator
+    assert own_values(driver_file, "driver")["pivot_actuator"] == actuator
