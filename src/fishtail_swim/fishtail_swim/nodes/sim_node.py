@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from typing import TYPE_CHECKING, Any
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -157,7 +158,11 @@ class SimNode(SuiteNodeBase):
             max_interval_s=self.stale_timeout_s,
             max_speed_rad_s=self.max_carrier_speed,
         )
-        self.follower.warm_up()  # before subscribing: no sample waits for the compiler
+        # Before subscribing: no sample waits for the compiler (seconds on a first run).
+        self.get_logger().info("preparing the integrator (compiled on a first run, then cached)")
+        started = time.monotonic()
+        self.follower.warm_up()
+        self.warm_up_s = time.monotonic() - started
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
         self.carrier_joint = CarrierJoint(self.motor_joint_name)
         self.guard = CarrierGuard()
@@ -219,7 +224,8 @@ class SimNode(SuiteNodeBase):
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.get_logger().info(
             f"swimming simulator up: {tail.name} tail, body {float(fish.body_length_m):g} m, "
-            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms; tf {self.tf_state}"
+            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms (integrator ready in "
+            f"{self.warm_up_s:.1f} s); tf {self.tf_state}"
         )
 
     def _on_pivot_state(self, message: JointState) -> None:
@@ -414,6 +420,7 @@ class SimNode(SuiteNodeBase):
             "restarts": str(self.follower.restarts),
             "received": str(self.received),
             "tf": self.tf_state,
+            "integrator_ready_s": f"{self.warm_up_s:.3g}",
             "pivot_shift_m": f"{self.pivot_shift_m:.6g}",
             **carrier_values,
             **input_values,
