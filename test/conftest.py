@@ -144,3 +144,15 @@ def params_file(tmp_path) -> Callable[..., Path]:
         return path
 
     return write
+
+
+@pytest.fixture
+def fish_and_tail(tmp_path, config_dir):
+    """config/oscillatory.yaml and config/fish.yaml in one parameter file (pilot, simulator)."""
+    from fishtail_plant.values import read_fish_values
+
+    document = yaml.safe_load((config_dir / "oscillatory.yaml").read_text(encoding="utf-8"))
+    document["/**"]["ros__parameters"].update(read_fish_values(config_dir / "fish.yaml"))
+    path = tmp_path / "fish_and_tail.yaml"
+    path.write_text(yaml.safe_dump(document), encoding="utf-8")
+    return path

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import math
 
-import pytest
-import yaml
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
@@ -27,7 +25,6 @@ from fishtail_common.interface import (
 )
 from fishtail_common.ros import qos_profile
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
-from fishtail_plant.values import read_fish_values
 
 PILOT_MODULE = "fishtail_pilot.node"
 SIM_MODULE = "fishtail_swim.nodes.sim_node"
@@ -36,16 +33,6 @@ GOAL = (3.0, 0.5)
 #: processes add the pilot's start-up (steering map, numba's first compile) and the motor's lag.
 GOAL_TIMEOUT_S = 90.0
 START_TIMEOUT_S = 60.0
-
-
-@pytest.fixture
-def fish_and_tail(tmp_path, config_dir):
-    """config/oscillatory.yaml and config/fish.yaml in one parameter file (pilot, simulator)."""
-    document = yaml.safe_load((config_dir / "oscillatory.yaml").read_text(encoding="utf-8"))
-    document["/**"]["ros__parameters"].update(read_fish_values(config_dir / "fish.yaml"))
-    path = tmp_path / "fish_and_tail.yaml"
-    path.write_text(yaml.safe_dump(document), encoding="utf-8")
-    return path
 
 
 def start_loop(start_node, ros, parameters, driver=None, pilot=None):

@@ -22,8 +22,6 @@ import sys
 import time
 
 import numpy as np
-import pytest
-import yaml
 from nav_msgs.msg import Odometry
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState
@@ -36,7 +34,6 @@ from fishtail_plant.fish.fish import FISH_PARAMETERS_BY_NAME, FishParameters
 from fishtail_plant.fish.follower import SwimFollower
 from fishtail_plant.fish.model import SURGE, SWAY, YAW_RATE
 from fishtail_plant.motor.first_order import MotorParameters, SimulatedMotor
-from fishtail_plant.values import read_fish_values
 
 SIM_MODULE = "fishtail_swim.nodes.sim_node"
 SPEED_RAD_S = 8.0
@@ -98,16 +95,6 @@ def schedules(rng: np.random.Generator) -> dict[str, list[tuple[float, int]]]:
         "dropped": [(k * step_s, k) for k in kept],
         "late": [(k * step_s, k) for k in range(LATE_FROM, SAMPLES)],
     }
-
-
-@pytest.fixture
-def swim_parameters(tmp_path, config_dir):
-    """The report's mechanism-1 geometry and config/fish.yaml in one parameter file."""
-    document = yaml.safe_load((config_dir / "oscillatory.yaml").read_text(encoding="utf-8"))
-    document["/**"]["ros__parameters"].update(read_fish_values(config_dir / "fish.yaml"))
-    path = tmp_path / "swim.yaml"
-    path.write_text(yaml.safe_dump(document), encoding="utf-8")
-    return path
 
 
 def reference(samples, path) -> dict[int, np.ndarray]:
@@ -188,7 +175,7 @@ class Feed:
 
 
 def test_the_fish_follows_the_stamps_not_the_delivery(
-    start_process, ros, swim_parameters, ros_domain
+    start_process, ros, fish_and_tail, ros_domain
 ):
     samples = carrier_trajectory()
     plan = schedules(np.random.default_rng(7))
@@ -196,7 +183,7 @@ def test_the_fish_follows_the_stamps_not_the_delivery(
         start_process(
             f"swim-{run}",
             [sys.executable, "-m", SIM_MODULE, "--ros-args", "-r", f"__ns:=/{run}",
-             "-r", "__node:=swim", "--params-file", str(swim_parameters)],
+             "-r", "__node:=swim", "--params-file", str(fish_and_tail)],
         )  # fmt: skip
     # Stamped in the past, so that no sample is ahead of the simulators' clocks.
     base_ns = ros.node.get_clock().now().nanoseconds - 60_000_000_000
@@ -223,7 +210,7 @@ def test_the_fish_follows_the_stamps_not_the_delivery(
     ros.spin_until(all_sent_and_answered, STREAM_TIMEOUT_S, "every run's last sample followed")
     ros.node.destroy_timer(timer)
 
-    expected = reference(samples, swim_parameters)
+    expected = reference(samples, fish_and_tail)
     velocities = [SURGE, SWAY, YAW_RATE]
     amplitudes = np.abs(np.array(list(expected.values()))[:, velocities]).max(axis=0)
     for run, feed in feeds.items():
