@@ -82,7 +82,7 @@ from fishtail_common.interface import (
     SUITE_NODES,
     SWIM_NODE,
 )
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import publisher_qos, subscriber_qos
 from fishtail_common.testing import (
     PROBE_QUEUE_DEPTH,
     WIDENING_VARIABLES,
@@ -197,7 +197,7 @@ class LoopProbe:
         self.twist = Twist()
         self.twist.linear.x = SPEED_M_S
         self.twist.angular.z = YAW_RATE_RAD_S
-        self.cmd_vel = probe.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+        self.cmd_vel = probe.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
         probe.node.create_timer(CMD_VEL_PERIOD_S, lambda: self.cmd_vel.publish(self.twist))
         # Best effort like the pilot's subscription, with a deep queue: a descheduled probe must
         # not be the one that drops odometry.
@@ -206,7 +206,7 @@ class LoopProbe:
         odom_qos.durability = qos_profile_sensor_data.durability
         probe.node.create_subscription(Odometry, FISH_ODOM.name, self._on_odom, odom_qos)
         profile_qos = QoSProfile(depth=PROFILE_QUEUE_DEPTH)
-        profile_qos.reliability = qos_profile(MOTOR_CMD_PROFILE).reliability
+        profile_qos.reliability = subscriber_qos(MOTOR_CMD_PROFILE).reliability
         probe.node.create_subscription(
             CarrierSpeedProfile, MOTOR_CMD_PROFILE.name, self._on_profile, profile_qos
         )

@@ -65,7 +65,7 @@ from fishtail_common.interface import (
     TAIL_STATE,
     WORLD_FRAME,
 )
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import publisher_qos
 from fishtail_common.testing import (
     PROBE_QUEUE_DEPTH,
     NodeProcess,
@@ -171,7 +171,7 @@ class SoakProbe:
         self.goal = PoseStamped()
         self.goal.header.frame_id = WORLD_FRAME
         self.goal_publisher = probe.node.create_publisher(
-            PoseStamped, GOAL_POSE.name, qos_profile(GOAL_POSE)
+            PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE)
         )
         probe.node.create_timer(GOAL_PERIOD_S, self.send_goal)
         qos = QoSProfile(depth=PROBE_QUEUE_DEPTH)

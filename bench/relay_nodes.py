@@ -54,8 +54,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    qos_profile,
+    publisher_qos,
     run_node,
+    subscriber_qos,
 )
 from fishtail_driver.parameters import SPECS as DRIVER_SPECS
 from fishtail_kinematics.nodes.marker_publisher import MARKERS_RATE
@@ -109,10 +110,10 @@ class DriverRelay(SuiteNodeBase):
         self.state_message.name = [str(values["joint_name"])]
         self.state_publisher = ListenedPublisher(self, JointState, MOTOR_JOINT_STATE)
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
         self.create_subscription(
-            Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
+            Float64, MOTOR_CMD_SPEED.name, self._on_command, subscriber_qos(MOTOR_CMD_SPEED)
         )
         self.diagnostics = diagnostic_array(
             self,
@@ -176,10 +177,13 @@ class KinematicsRelay(SuiteNodeBase):
         self.state_publisher = ListenedPublisher(self, TailState, TAIL_STATE)
         self.marker_publisher = ListenedPublisher(self, MarkerArray, TAIL_MARKERS)
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
         self.create_subscription(
-            JointState, MOTOR_JOINT_STATE.name, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
+            JointState,
+            MOTOR_JOINT_STATE.name,
+            self._on_motor_state,
+            subscriber_qos(MOTOR_JOINT_STATE),
         )
         rate_hz = float(values[MARKERS_RATE.name])
         if rate_hz > 0.0:
@@ -249,19 +253,19 @@ class MonitorRelay(SuiteNodeBase):
         self.simulated_speed_m_s = math.nan
         self.report = SymmetryReport(message="relay")
         self.report_publisher = self.create_publisher(
-            SymmetryReport, TAIL_SYMMETRY.name, qos_profile(TAIL_SYMMETRY)
+            SymmetryReport, TAIL_SYMMETRY.name, publisher_qos(TAIL_SYMMETRY)
         )
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
         self.create_subscription(
-            TailState, TAIL_STATE.name, self._on_state, qos_profile(TAIL_STATE)
+            TailState, TAIL_STATE.name, self._on_state, subscriber_qos(TAIL_STATE)
         )
         self.create_subscription(
-            Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
+            Float64, MOTOR_CMD_SPEED.name, self._on_command, subscriber_qos(MOTOR_CMD_SPEED)
         )
         self.create_subscription(
-            SwimFigures, FISH_SWIMMING.name, self._on_swimming, qos_profile(FISH_SWIMMING)
+            SwimFigures, FISH_SWIMMING.name, self._on_swimming, subscriber_qos(FISH_SWIMMING)
         )
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
 

@@ -15,7 +15,7 @@ import math
 import pytest
 
 from fishtail_common.interface import FISH_SWIMMING, TAIL_STATE
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import publisher_qos
 from fishtail_msgs.msg import SwimFigures, TailState
 
 SAMPLE_PERIOD_S = 0.005
@@ -43,7 +43,7 @@ class StateStream:
         for name in ("theta4", "theta4_dot", "theta5", "theta5_dot"):
             setattr(self.message, name, math.nan)  # as the kinematics node fills mechanism 1
         self.publisher = ros.node.create_publisher(
-            TailState, TAIL_STATE.name, qos_profile(TAIL_STATE)
+            TailState, TAIL_STATE.name, publisher_qos(TAIL_STATE)
         )
         self.timer = ros.node.create_timer(SAMPLE_PERIOD_S, self._tick)
 
@@ -74,7 +74,7 @@ class SwimStream:
         self.message = SwimFigures(mean_speed_m_s=speed_m_s, beat_frequency_hz=2.0)
         self.message.header.frame_id = "world"
         self.publisher = ros.node.create_publisher(
-            SwimFigures, FISH_SWIMMING.name, qos_profile(FISH_SWIMMING)
+            SwimFigures, FISH_SWIMMING.name, publisher_qos(FISH_SWIMMING)
         )
         self.timer = ros.node.create_timer(SWIM_PERIOD_S, self._tick)
 

@@ -17,7 +17,7 @@ from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 
 from fishtail_common.interface import CMD_VEL, FISH_ODOM, MOTOR_CMD_PROFILE, Level
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import publisher_qos
 from fishtail_msgs.msg import CarrierSpeedProfile
 
 PILOT_MODULE = "fishtail_pilot.node"
@@ -35,7 +35,9 @@ class FakeFish:
         self.ros = ros
         self.speed_m_s = speed_m_s
         self.x_m = 0.0
-        self.publisher = ros.node.create_publisher(Odometry, FISH_ODOM.name, qos_profile(FISH_ODOM))
+        self.publisher = ros.node.create_publisher(
+            Odometry, FISH_ODOM.name, publisher_qos(FISH_ODOM)
+        )
         self.timer = ros.node.create_timer(ODOM_PERIOD_S, self.publish)
         self.running = True
         self.not_finite = False  # a tracker's NaN heading
@@ -73,7 +75,7 @@ def test_cmd_vel_becomes_a_carrier_profile_and_the_watchdog_stops_it(start_node,
     profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
     start_pilot(start_node, ros, cmd_timeout_sec=0.5)
     fish = FakeFish(ros, 0.3)
-    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
     sender = ros.node.create_timer(0.1, lambda: commands.publish(twist(0.3, 0.0)))
     ros.spin_until(
         lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "a moving carrier profile"
@@ -96,7 +98,7 @@ def test_a_turn_beyond_reach_is_reported_with_the_achievable_rate(start_node, ro
     diagnostics = ros.record_diagnostics()
     start_pilot(start_node, ros, cmd_timeout_sec=0.0)
     FakeFish(ros, 0.3)
-    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
     commands.publish(twist(0.3, 5.0))
 
     def warned():
@@ -120,7 +122,7 @@ def test_odometry_that_stops_stops_the_carrier_until_it_is_back(start_node, ros)
     diagnostics = ros.record_diagnostics()
     start_pilot(start_node, ros, cmd_timeout_sec=0.0, odom_timeout_sec=0.3)
     fish = FakeFish(ros, 0.1)
-    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
     commands.publish(twist(0.3, 0.0))
     ros.spin_until(
         lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "a moving carrier profile"
@@ -148,7 +150,7 @@ def test_odometry_that_is_not_finite_stops_the_carrier_with_an_error_until_it_is
     diagnostics = ros.record_diagnostics()
     start_pilot(start_node, ros, cmd_timeout_sec=0.0)
     fish = FakeFish(ros, 0.3)
-    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
     commands.publish(twist(0.3, 0.0))
     ros.spin_until(
         lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "a moving carrier profile"
@@ -206,7 +208,7 @@ def test_timeouts_and_the_control_rate_set_at_run_time_are_in_force_and_gains_re
     assert all(result.successful for result in results), results
     (refused,) = set_parameters(ros, speed_gain=1.0)
     assert not refused.successful  # the law's gains are fixed for the run
-    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
     ros.wait_for_subscribers(FISH_ODOM.name, 1, TIMEOUT_S)
     # cmd_timeout_sec: one cmd_vel keeps the carrier going for 4 s, not 0.5 s.
     sent_ns = time.time_ns()
@@ -245,7 +247,7 @@ def test_an_idle_pilot_sends_one_stop_then_nothing_beside_manual_commands(start_
     ros.wait_for_subscribers(FISH_ODOM.name, 1, TIMEOUT_S)
     ros.spin_for(2.0)
     assert len(profiles) == 0  # idle from the start, odometry coming: it has nothing to stop
-    commands = ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL))
+    commands = ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL))
     commands.publish(twist(0.3, 0.0))
     ros.spin_until(
         lambda: any(p.mean_speed == 0.0 for p in profiles), TIMEOUT_S, "the watchdog's stop"

@@ -23,7 +23,7 @@ from fishtail_common.interface import (
     PIVOT_JOINT_STATE,
     Level,
 )
-from fishtail_common.ros import qos_profile
+from fishtail_common.ros import publisher_qos
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
 
 PILOT_MODULE = "fishtail_pilot.node"
@@ -52,7 +52,7 @@ def test_a_goal_three_metres_away_is_reached_and_the_carrier_stops(start_node, r
     goal = PoseStamped()
     goal.header.frame_id = "world"
     goal.pose.position.x, goal.pose.position.y = GOAL
-    ros.node.create_publisher(PoseStamped, GOAL_POSE.name, qos_profile(GOAL_POSE)).publish(goal)
+    ros.node.create_publisher(PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE)).publish(goal)
 
     def reached():
         return any(
@@ -86,7 +86,7 @@ def test_pivot_steering_moves_the_drivers_actuator_and_the_simulated_tail(
     )  # fmt: skip
     command = Twist()
     command.linear.x, command.angular.z = 0.3, 0.05  # left: the pivot moves S forwards
-    ros.node.create_publisher(Twist, CMD_VEL.name, qos_profile(CMD_VEL)).publish(command)
+    ros.node.create_publisher(Twist, CMD_VEL.name, publisher_qos(CMD_VEL)).publish(command)
     ros.spin_until(
         lambda: any(m.position and m.position[0] < -0.002 for m in pivot),
         START_TIMEOUT_S,

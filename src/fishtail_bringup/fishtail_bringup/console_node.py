@@ -54,7 +54,7 @@ class Console:
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64
 
-        from fishtail_common.ros import qos_profile
+        from fishtail_common.ros import publisher_qos, subscriber_qos
         from fishtail_msgs.msg import SymmetryReport, TailState
 
         self.rclpy = rclpy
@@ -76,7 +76,7 @@ class Console:
         self.publisher = None
         if speed_rad_s is not None:
             self.publisher = self.node.create_publisher(
-                Float64, MOTOR_CMD_SPEED.name, qos_profile(MOTOR_CMD_SPEED)
+                Float64, MOTOR_CMD_SPEED.name, publisher_qos(MOTOR_CMD_SPEED)
             )
             self.node.create_timer(COMMAND_PERIOD_S, self.command)
         subscriptions = (
@@ -86,12 +86,12 @@ class Console:
             (JointState, MOTOR_JOINT_STATE, self._on_motor),
         )
         for message_type, topic, callback in subscriptions:
-            self.node.create_subscription(message_type, topic.name, callback, qos_profile(topic))
+            self.node.create_subscription(message_type, topic.name, callback, subscriber_qos(topic))
         if swim:
             from nav_msgs.msg import Odometry
 
             self.node.create_subscription(
-                Odometry, FISH_ODOM.name, self._on_fish, qos_profile(FISH_ODOM)
+                Odometry, FISH_ODOM.name, self._on_fish, subscriber_qos(FISH_ODOM)
             )
         self.route = route
         self.goal_publisher = None
@@ -101,7 +101,7 @@ class Console:
             self.goal = PoseStamped()
             self.goal.header.frame_id = WORLD_FRAME
             self.goal_publisher = self.node.create_publisher(
-                PoseStamped, GOAL_POSE.name, qos_profile(GOAL_POSE)
+                PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE)
             )
             # Sent again every period: a goal published before the pilot subscribed is lost.
             self.node.create_timer(GOAL_PERIOD_S, self.send_goal)

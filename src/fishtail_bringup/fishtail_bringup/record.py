@@ -124,7 +124,7 @@ class RecorderNode:
                 continue
             if resolved in known:
                 suite_topic = known[resolved]
-                reliable = suite_topic.qos is not QosKind.SENSOR_DATA
+                reliable = suite_topic.qos is not QosKind.STATE  # best effort takes any publisher
                 self._subscribe(resolved, suite_topic.type, reliable, durable=False)
             else:
                 self.waiting[resolved] = topic

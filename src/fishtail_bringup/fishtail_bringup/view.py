@@ -74,7 +74,7 @@ class ViewNode:
         import rclpy
         from geometry_msgs.msg import PoseStamped
 
-        from fishtail_common.ros import qos_profile
+        from fishtail_common.ros import subscriber_qos
 
         self.view = view
         self.say = say
@@ -85,7 +85,7 @@ class ViewNode:
         self.goal = None
         self.logged = 0
         self.node.create_subscription(
-            PoseStamped, GOAL_POSE.name, self._on_goal, qos_profile(GOAL_POSE)
+            PoseStamped, GOAL_POSE.name, self._on_goal, subscriber_qos(GOAL_POSE)
         )
         self.node.create_timer(WATCH_PERIOD_S, self.watch)
         self.plot_timer: Any = None
@@ -111,7 +111,7 @@ class ViewNode:
     def _subscribe(self) -> None:
         from visualization_msgs.msg import MarkerArray
 
-        from fishtail_common.ros import qos_profile
+        from fishtail_common.ros import subscriber_qos
         from fishtail_msgs.msg import SymmetryReport, TailState
 
         node = self.node
@@ -122,7 +122,7 @@ class ViewNode:
             (SymmetryReport, TAIL_SYMMETRY, lambda m: self._log(*symmetry_primitives(m))),
         )
         self.subscriptions = [
-            node.create_subscription(kind, topic.name, callback, qos_profile(topic))
+            node.create_subscription(kind, topic.name, callback, subscriber_qos(topic))
             for kind, topic, callback in table
         ]
         self.plot_timer = node.create_timer(PLOT_PERIOD_S, self._flush_plots)

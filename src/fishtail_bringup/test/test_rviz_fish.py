@@ -17,7 +17,6 @@ from fishtail_common.interface import (
     FISH_ODOM,
     TAIL_MARKERS,
     WORLD_FRAME,
-    QosKind,
     Topic,
 )
 
@@ -54,10 +53,20 @@ def test_shows_the_suite_topics(manager, class_name):
 
 def subscription_matches(display: dict, topic: Topic) -> bool:
     """True if the display's subscription QoS can receive the topic's publisher (DDS's rules)."""
-    qos = display["Topic"]
-    if qos["Reliability Policy"] == "Reliable" and topic.qos is QosKind.SENSOR_DATA:
+    from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+    from fishtail_common.ros import publisher_qos
+
+    qos, offered = display["Topic"], publisher_qos(topic)
+    if (
+        qos["Reliability Policy"] == "Reliable"
+        and offered.reliability != ReliabilityPolicy.RELIABLE
+    ):
         return False  # a best-effort publisher cannot serve a reliable subscription
-    return not (qos["Durability Policy"] == "Transient Local" and topic.qos is not QosKind.LATCHED)
+    return not (
+        qos["Durability Policy"] == "Transient Local"
+        and offered.durability != DurabilityPolicy.TRANSIENT_LOCAL
+    )
 
 
 def test_every_topic_display_can_receive_its_topic(manager):

@@ -3,11 +3,12 @@
 Plain Python (no rclpy), so that the recorder, the offline analysis and the tests name topics the
 way the nodes do. Topic names are relative (a namespace moves the whole suite) except
 ``/diagnostics``, ``/tf`` and ``/tf_static``, whose absolute names are ROS conventions;
-:mod:`fishtail_common.ros` turns a :class:`QosKind` into an rclpy profile.
+:mod:`fishtail_common.ros` turns a :class:`QosKind` into the rclpy profiles of its publishers and
+subscribers.
 
 >>> TAIL_STATE.name, TAIL_STATE.type
 ('tail/state', 'fishtail_msgs/msg/TailState')
->>> [topic.name for topic in SUITE_TOPICS if topic.qos is QosKind.SENSOR_DATA][:3]
+>>> [topic.name for topic in SUITE_TOPICS if topic.qos is QosKind.STATE][:3]
 ['motor/joint_state', 'pivot/joint_state', 'tail/joint_states']
 """
 
@@ -41,8 +42,10 @@ class Status:
 class QosKind(enum.Enum):
     """How a topic is delivered; each kind is one rclpy profile (``ros.qos_profile``)."""
 
-    #: High-rate state: best effort, volatile, depth 5 (rclpy's qos_profile_sensor_data).
-    SENSOR_DATA = "sensor_data"
+    #: High-rate state (REP 2003): published reliable, volatile, depth 10 (the system default), so
+    #: that a subscriber with default QoS receives it; the suite's own subscribers take it best
+    #: effort, depth 5 (sensor data), which never waits for a lost sample.
+    STATE = "state"
     #: Commands and diagnostics: reliable, volatile, depth 10.
     RELIABLE = "reliable"
     #: One message per event that a late subscriber still wants: reliable, transient local,
@@ -72,7 +75,7 @@ MOTOR_CMD_PROFILE = Topic(
 MOTOR_JOINT_STATE = Topic(
     "motor/joint_state",
     "sensor_msgs/msg/JointState",
-    QosKind.SENSOR_DATA,
+    QosKind.STATE,
     "carrier joint: unwrapped angle rad, velocity rad/s, stamped when the encoder was read",
 )
 PIVOT_CMD_POSITION = Topic(
@@ -84,17 +87,17 @@ PIVOT_CMD_POSITION = Topic(
 PIVOT_JOINT_STATE = Topic(
     "pivot/joint_state",
     "sensor_msgs/msg/JointState",
-    QosKind.SENSOR_DATA,
+    QosKind.STATE,
     "pivot actuator: shift of S m (+ towards the tail), its rate m/s",
 )
 TAIL_JOINT_STATES = Topic(
-    "tail/joint_states", "sensor_msgs/msg/JointState", QosKind.SENSOR_DATA, "theta1..theta5, rad"
+    "tail/joint_states", "sensor_msgs/msg/JointState", QosKind.STATE, "theta1..theta5, rad"
 )
 TAIL_TIP = Topic(
-    "tail/tip", "geometry_msgs/msg/PointStamped", QosKind.SENSOR_DATA, "tail tip in the tail frame"
+    "tail/tip", "geometry_msgs/msg/PointStamped", QosKind.STATE, "tail tip in the tail frame"
 )
 TAIL_STATE = Topic(
-    "tail/state", "fishtail_msgs/msg/TailState", QosKind.SENSOR_DATA, "everything the engine solved"
+    "tail/state", "fishtail_msgs/msg/TailState", QosKind.STATE, "everything the engine solved"
 )
 TAIL_SYMMETRY = Topic(
     "tail/symmetry", "fishtail_msgs/msg/SymmetryReport", QosKind.LATCHED, "one report per beat"
@@ -108,7 +111,7 @@ TAIL_MARKERS = Topic(
 FISH_ODOM = Topic(
     "fish/odom",
     "nav_msgs/msg/Odometry",
-    QosKind.SENSOR_DATA,
+    QosKind.STATE,
     "simulated fish: pose X, Y, yaw in world, twist u, v, r in base_link, per carrier sample",
 )
 FISH_MARKERS = Topic(

@@ -25,16 +25,28 @@ from rclpy.signals import SignalHandlerOptions
 from fishtail_common.interface import QosKind, Status, Topic
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 
-_PROFILES = {
-    QosKind.SENSOR_DATA: qos_profile_sensor_data,
-    QosKind.RELIABLE: QoSProfile(depth=10),
-    QosKind.LATCHED: QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+_RELIABLE = QoSProfile(depth=10)
+_LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+_PUBLISHER_PROFILES = {
+    QosKind.STATE: _RELIABLE,
+    QosKind.RELIABLE: _RELIABLE,
+    QosKind.LATCHED: _LATCHED,
+}
+_SUBSCRIBER_PROFILES = {
+    QosKind.STATE: qos_profile_sensor_data,
+    QosKind.RELIABLE: _RELIABLE,
+    QosKind.LATCHED: _LATCHED,
 }
 
 
-def qos_profile(topic: Topic) -> QoSProfile:
-    """The QoS profile of one of the suite's topics."""
-    return _PROFILES[topic.qos]
+def publisher_qos(topic: Topic) -> QoSProfile:
+    """The QoS a publisher of one of the suite's topics offers (README, "Topics": why)."""
+    return _PUBLISHER_PROFILES[topic.qos]
+
+
+def subscriber_qos(topic: Topic) -> QoSProfile:
+    """The QoS the suite's own subscribers of one of its topics ask for."""
+    return _SUBSCRIBER_PROFILES[topic.qos]
 
 
 # ---- parameters
@@ -221,7 +233,7 @@ class ListenedPublisher:
     def __init__(self, node: Node, message_type: type[Any], topic: Topic) -> None:
         """Create the publisher of ``topic`` on ``node`` with the topic's QoS."""
         self.always = topic.qos is QosKind.LATCHED
-        self.publisher = node.create_publisher(message_type, topic.name, qos_profile(topic))
+        self.publisher = node.create_publisher(message_type, topic.name, publisher_qos(topic))
 
     @property
     def subscribers(self) -> int:

@@ -27,8 +27,8 @@ def test_topic_types_name_a_message_of_a_package():
 
 def test_high_rate_state_is_sensor_data_and_commands_are_reliable():
     kinds = {topic.name: topic.qos for topic in SUITE_TOPICS}
-    assert kinds["motor/joint_state"] is QosKind.SENSOR_DATA
-    assert kinds["tail/state"] is QosKind.SENSOR_DATA
+    assert kinds["motor/joint_state"] is QosKind.STATE
+    assert kinds["tail/state"] is QosKind.STATE
     assert kinds["motor/cmd_speed"] is QosKind.RELIABLE
 
 

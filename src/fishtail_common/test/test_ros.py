@@ -13,7 +13,14 @@ from fishtail_common.interface import (
     Status,
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValueError
-from fishtail_common.ros import declare, descriptor, diagnostic_array, qos_profile, spin_until
+from fishtail_common.ros import (
+    declare,
+    descriptor,
+    diagnostic_array,
+    publisher_qos,
+    spin_until,
+    subscriber_qos,
+)
 
 RATE = ParameterSpec("publish_rate_hz", 200.0, "rate", "Hz", 1.0, 1000.0, read_only=True)
 COUNTS = ParameterSpec("counts", 2048, "counts per turn", minimum=1)
@@ -34,11 +41,16 @@ def test_descriptor_carries_text_range_and_read_only():
 
 
 def test_qos_profiles_follow_the_kinds():
+    """State is offered reliable (REP 2003) and taken best effort; the rest alike both ways."""
     from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-    assert qos_profile(MOTOR_JOINT_STATE).reliability == ReliabilityPolicy.BEST_EFFORT
-    assert qos_profile(DIAGNOSTICS).reliability == ReliabilityPolicy.RELIABLE
-    assert qos_profile(TAIL_SYMMETRY).durability == DurabilityPolicy.TRANSIENT_LOCAL
+    assert publisher_qos(MOTOR_JOINT_STATE).reliability == ReliabilityPolicy.RELIABLE
+    assert publisher_qos(MOTOR_JOINT_STATE).durability == DurabilityPolicy.VOLATILE
+    assert subscriber_qos(MOTOR_JOINT_STATE).reliability == ReliabilityPolicy.BEST_EFFORT
+    for topic in (DIAGNOSTICS, TAIL_SYMMETRY):
+        assert publisher_qos(topic) == subscriber_qos(topic)
+    assert publisher_qos(DIAGNOSTICS).reliability == ReliabilityPolicy.RELIABLE
+    assert publisher_qos(TAIL_SYMMETRY).durability == DurabilityPolicy.TRANSIENT_LOCAL
 
 
 @pytest.fixture

@@ -38,8 +38,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    qos_profile,
+    publisher_qos,
     run_node,
+    subscriber_qos,
 )
 from fishtail_common.stream_timing import RateCheck
 from fishtail_driver.backends import StopOutcome
@@ -127,16 +128,16 @@ class DriverNode(SuiteNodeBase):
         self.state_message.name = [str(values["joint_name"])]
         self.state_publisher = ListenedPublisher(self, JointState, MOTOR_JOINT_STATE)
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
         self.create_subscription(
-            Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
+            Float64, MOTOR_CMD_SPEED.name, self._on_command, subscriber_qos(MOTOR_CMD_SPEED)
         )
         self.create_subscription(
             CarrierSpeedProfile,
             MOTOR_CMD_PROFILE.name,
             self._on_profile,
-            qos_profile(MOTOR_CMD_PROFILE),
+            subscriber_qos(MOTOR_CMD_PROFILE),
         )
         self.pivot = make_pivot_output(self, values, self._stamp)
         self.publish_timer = self.create_timer(1.0 / self.publish_rate_hz, self._on_publish_tick)

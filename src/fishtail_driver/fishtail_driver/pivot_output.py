@@ -24,7 +24,7 @@ from fishtail_common.interface import (
     Level,
     Status,
 )
-from fishtail_common.ros import ListenedPublisher, SuiteNodeBase, qos_profile
+from fishtail_common.ros import ListenedPublisher, SuiteNodeBase, subscriber_qos
 from fishtail_driver.parameters import NO_PIVOT, ParameterValues, pivot_limits
 from fishtail_driver.stamping import IncreasingStamps
 from fishtail_plant.pivot_actuator import PivotActuator, PivotCommandOutcome, PivotLimits
@@ -80,7 +80,7 @@ class SimPivot:
         self.message.name = [PIVOT_JOINT]
         self.publisher = ListenedPublisher(node, JointState, PIVOT_JOINT_STATE)
         node.create_subscription(
-            Float64, PIVOT_CMD_POSITION.name, self._on_command, qos_profile(PIVOT_CMD_POSITION)
+            Float64, PIVOT_CMD_POSITION.name, self._on_command, subscriber_qos(PIVOT_CMD_POSITION)
         )
 
     def _on_command(self, message: Float64) -> None:

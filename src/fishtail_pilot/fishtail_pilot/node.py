@@ -37,8 +37,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    qos_profile,
+    publisher_qos,
     run_node,
+    subscriber_qos,
 )
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -113,19 +114,23 @@ class PilotNode(SuiteNodeBase):
         self.pivot_message = Float64()
 
         self.profile_publisher = self.create_publisher(
-            ProfileMessage, MOTOR_CMD_PROFILE.name, qos_profile(MOTOR_CMD_PROFILE)
+            ProfileMessage, MOTOR_CMD_PROFILE.name, publisher_qos(MOTOR_CMD_PROFILE)
         )
         self.pivot_publisher = (
-            self.create_publisher(Float64, PIVOT_CMD_POSITION.name, qos_profile(PIVOT_CMD_POSITION))
+            self.create_publisher(
+                Float64, PIVOT_CMD_POSITION.name, publisher_qos(PIVOT_CMD_POSITION)
+            )
             if steering.command(0.0).pivot_shift_m is not None
             else None
         )
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
-        self.create_subscription(Twist, CMD_VEL.name, self._on_cmd_vel, qos_profile(CMD_VEL))
-        self.create_subscription(PoseStamped, GOAL_POSE.name, self._on_goal, qos_profile(GOAL_POSE))
-        self.create_subscription(Odometry, FISH_ODOM.name, self._on_odom, qos_profile(FISH_ODOM))
+        self.create_subscription(Twist, CMD_VEL.name, self._on_cmd_vel, subscriber_qos(CMD_VEL))
+        self.create_subscription(
+            PoseStamped, GOAL_POSE.name, self._on_goal, subscriber_qos(GOAL_POSE)
+        )
+        self.create_subscription(Odometry, FISH_ODOM.name, self._on_odom, subscriber_qos(FISH_ODOM))
         self.create_timer(0.05, self._on_watchdog)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)

@@ -43,8 +43,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    qos_profile,
+    publisher_qos,
     run_node,
+    subscriber_qos,
 )
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -150,13 +151,16 @@ class KinematicsNode(SuiteNodeBase):
         self.tip_publisher = ListenedPublisher(self, PointStamped, TAIL_TIP)
         self.state_publisher = ListenedPublisher(self, TailState, TAIL_STATE)
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
         self.create_subscription(
-            JointState, INPUT_TOPIC, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
+            JointState, INPUT_TOPIC, self._on_motor_state, subscriber_qos(MOTOR_JOINT_STATE)
         )
         self.create_subscription(
-            JointState, PIVOT_JOINT_STATE.name, self._on_pivot_state, qos_profile(PIVOT_JOINT_STATE)
+            JointState,
+            PIVOT_JOINT_STATE.name,
+            self._on_pivot_state,
+            subscriber_qos(PIVOT_JOINT_STATE),
         )
         self.markers = TailMarkerPublisher(
             self,

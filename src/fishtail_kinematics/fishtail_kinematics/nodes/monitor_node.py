@@ -36,8 +36,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    qos_profile,
+    publisher_qos,
     run_node,
+    subscriber_qos,
 )
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.input_guard import (
@@ -146,17 +147,17 @@ class MonitorNode(SuiteNodeBase):
 
         # Transient local: a subscriber that joins late still gets the latest verdict.
         self.report_publisher = self.create_publisher(
-            SymmetryReport, TAIL_SYMMETRY.name, qos_profile(TAIL_SYMMETRY)
+            SymmetryReport, TAIL_SYMMETRY.name, publisher_qos(TAIL_SYMMETRY)
         )
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
-        self.create_subscription(TailState, INPUT_TOPIC, self._on_state, qos_profile(TAIL_STATE))
+        self.create_subscription(TailState, INPUT_TOPIC, self._on_state, subscriber_qos(TAIL_STATE))
         self.create_subscription(
-            Float64, MOTOR_CMD_SPEED.name, self._on_command, qos_profile(MOTOR_CMD_SPEED)
+            Float64, MOTOR_CMD_SPEED.name, self._on_command, subscriber_qos(MOTOR_CMD_SPEED)
         )
         self.create_subscription(
-            SwimFigures, FISH_SWIMMING.name, self._on_swimming, qos_profile(FISH_SWIMMING)
+            SwimFigures, FISH_SWIMMING.name, self._on_swimming, subscriber_qos(FISH_SWIMMING)
         )
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.add_on_set_parameters_callback(self._on_set_parameters)

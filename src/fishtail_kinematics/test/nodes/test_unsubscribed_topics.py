@@ -79,7 +79,7 @@ def test_no_subscriber_no_tip_then_a_late_subscriber_receives(kinematics):
     from geometry_msgs.msg import PointStamped
 
     from fishtail_common.interface import TAIL_TIP
-    from fishtail_common.ros import qos_profile
+    from fishtail_common.ros import subscriber_qos
 
     node, helper, executor, handed = kinematics
     executor.spin_once(timeout_sec=0.1)
@@ -88,7 +88,9 @@ def test_no_subscriber_no_tip_then_a_late_subscriber_receives(kinematics):
     assert handed == {"tip": 0, "joints": 0, "state": 0}  # nobody listens: nothing built
 
     received = []
-    helper.create_subscription(PointStamped, TAIL_TIP.name, received.append, qos_profile(TAIL_TIP))
+    helper.create_subscription(
+        PointStamped, TAIL_TIP.name, received.append, subscriber_qos(TAIL_TIP)
+    )
     spin_until(executor, lambda: node.tip_publisher.listened)
     feed(node, SAMPLES, first=SAMPLES)
     assert handed == {"tip": SAMPLES, "joints": 0, "state": 0}

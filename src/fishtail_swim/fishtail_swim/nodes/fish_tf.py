@@ -16,7 +16,7 @@ from rclpy.node import Node
 
 from fishtail_common.interface import TF, TF_STATIC
 from fishtail_common.parameters import ParameterSpec
-from fishtail_common.ros import ListenedPublisher, qos_profile
+from fishtail_common.ros import ListenedPublisher, publisher_qos
 from fishtail_swim.frames import FrameTransform, body_in_world, tail_in_body
 
 if TYPE_CHECKING:
@@ -60,7 +60,7 @@ class FishTfBroadcaster:
         self.published = 0
         self.publisher = ListenedPublisher(node, message_type, TF)
         self.static_publisher = node.create_publisher(
-            message_type, TF_STATIC.name, qos_profile(TF_STATIC)
+            message_type, TF_STATIC.name, publisher_qos(TF_STATIC)
         )
         stamp = node.get_clock().now().to_msg()
         self.static_publisher.publish(

@@ -38,8 +38,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    qos_profile,
+    publisher_qos,
     run_node,
+    subscriber_qos,
 )
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -187,19 +188,22 @@ class SimNode(SuiteNodeBase):
         self.odom.child_frame_id = BODY_FRAME
         self.odom_publisher = ListenedPublisher(self, Odometry, FISH_ODOM)
         self.figures_publisher = self.create_publisher(
-            SwimFigures, FISH_SWIMMING.name, qos_profile(FISH_SWIMMING)
+            SwimFigures, FISH_SWIMMING.name, publisher_qos(FISH_SWIMMING)
         )
         self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, qos_profile(DIAGNOSTICS)
+            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
         )
         self.create_subscription(
-            JointState, INPUT_TOPIC, self._on_motor_state, qos_profile(MOTOR_JOINT_STATE)
+            JointState, INPUT_TOPIC, self._on_motor_state, subscriber_qos(MOTOR_JOINT_STATE)
         )
         self.design_tail = tail
         self.pivot_shift_m = 0.0
         self.pivot_refusal = ""
         self.create_subscription(
-            JointState, PIVOT_JOINT_STATE.name, self._on_pivot_state, qos_profile(PIVOT_JOINT_STATE)
+            JointState,
+            PIVOT_JOINT_STATE.name,
+            self._on_pivot_state,
+            subscriber_qos(PIVOT_JOINT_STATE),
         )
         self.markers = FishMarkerPublisher(
             self,
