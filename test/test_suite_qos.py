@@ -50,3 +50,27 @@ def test_a_default_and_a_sensor_data_subscriber_both_receive_every_state_topic(
         offered = ros.node.get_publishers_info_by_topic(topic.name)
         assert offered, topic.name
         assert all(info.qos_profile.reliability.name == "RELIABLE" for info in offered), topic.name
+
+
+def test_qos_overrides_in_a_parameter_file_switch_a_topic_back_to_best_effort(
+    start_node, ros, tmp_path, config_dir
+):
+    """``qos_overrides./motor/joint_state.publisher`` in the driver's file: offered best effort.
+
+    (The graph does not carry the history depth, which the file also sets.)
+    """
+    overrides = tmp_path / "qos.yaml"
+    overrides.write_text(
+        "/**:\n  ros__parameters:\n    qos_overrides:\n      /motor/joint_state:\n"
+        "        publisher:\n          reliability: best_effort\n          depth: 3\n",
+        encoding="utf-8",
+    )
+    start_node("driver", params_file=overrides)
+    ros.wait_for_publishers("motor/joint_state")
+    (offered,) = ros.node.get_publishers_info_by_topic("motor/joint_state")
+    assert offered.qos_profile.reliability.name == "BEST_EFFORT"
+    sensor = ros.record(get_message("sensor_msgs/msg/JointState"), "motor/joint_state")
+    ros.wait_for_messages(sensor, MESSAGES, TIMEOUT_S, "motor/joint_state, best effort")
+    # The other publishers keep theirs.
+    (diagnostics,) = ros.node.get_publishers_info_by_topic("/diagnostics")
+    assert diagnostics.qos_profile.reliability.name == "RELIABLE"

@@ -7,6 +7,7 @@ stops them on SIGINT or SIGTERM.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import signal
 import sys
@@ -19,7 +20,9 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 
 from fishtail_common.interface import QosKind, Status, Topic
@@ -39,14 +42,31 @@ _SUBSCRIBER_PROFILES = {
 }
 
 
+def suite_publisher(node: Node, message_type: type[Any], topic: Topic) -> Publisher:
+    """A publisher of ``topic`` with its QoS, which ``qos_overrides`` parameters may change.
+
+    rclpy declares ``qos_overrides.<topic>.publisher.{history,depth,reliability}`` (read-only),
+    so that a parameter file sets them as it does for rclcpp nodes (README, "QoS overrides").
+    """
+    return node.create_publisher(
+        message_type,
+        topic.name,
+        publisher_qos(topic),
+        qos_overriding_options=QoSOverridingOptions.with_default_policies(),
+    )
+
+
 def publisher_qos(topic: Topic) -> QoSProfile:
-    """The QoS a publisher of one of the suite's topics offers (README, "Topics": why)."""
-    return _PUBLISHER_PROFILES[topic.qos]
+    """The QoS a publisher of one of the suite's topics offers (README, "Topics": why).
+
+    A copy: rclpy's QoS overrides change the profile given to a publisher in place.
+    """
+    return copy.copy(_PUBLISHER_PROFILES[topic.qos])
 
 
 def subscriber_qos(topic: Topic) -> QoSProfile:
-    """The QoS the suite's own subscribers of one of its topics ask for."""
-    return _SUBSCRIBER_PROFILES[topic.qos]
+    """The QoS the suite's own subscribers of one of its topics ask for (a copy)."""
+    return copy.copy(_SUBSCRIBER_PROFILES[topic.qos])
 
 
 # ---- parameters
@@ -231,9 +251,9 @@ class ListenedPublisher:
     """
 
     def __init__(self, node: Node, message_type: type[Any], topic: Topic) -> None:
-        """Create the publisher of ``topic`` on ``node`` with the topic's QoS."""
+        """Create the publisher of ``topic`` on ``node`` (:func:`suite_publisher`)."""
         self.always = topic.qos is QosKind.LATCHED
-        self.publisher = node.create_publisher(message_type, topic.name, publisher_qos(topic))
+        self.publisher = suite_publisher(node, message_type, topic)
 
     @property
     def subscribers(self) -> int:

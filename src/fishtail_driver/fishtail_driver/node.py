@@ -38,9 +38,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    publisher_qos,
     run_node,
     subscriber_qos,
+    suite_publisher,
 )
 from fishtail_common.stream_timing import RateCheck
 from fishtail_driver.backends import StopOutcome
@@ -127,9 +127,7 @@ class DriverNode(SuiteNodeBase):
         self.state_message = JointState()
         self.state_message.name = [str(values["joint_name"])]
         self.state_publisher = ListenedPublisher(self, JointState, MOTOR_JOINT_STATE)
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
-        )
+        self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
         self.create_subscription(
             Float64, MOTOR_CMD_SPEED.name, self._on_command, subscriber_qos(MOTOR_CMD_SPEED)
         )

@@ -37,9 +37,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    publisher_qos,
     run_node,
     subscriber_qos,
+    suite_publisher,
 )
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -113,19 +113,13 @@ class PilotNode(SuiteNodeBase):
         self.profile_message = ProfileMessage()
         self.pivot_message = Float64()
 
-        self.profile_publisher = self.create_publisher(
-            ProfileMessage, MOTOR_CMD_PROFILE.name, publisher_qos(MOTOR_CMD_PROFILE)
-        )
+        self.profile_publisher = suite_publisher(self, ProfileMessage, MOTOR_CMD_PROFILE)
         self.pivot_publisher = (
-            self.create_publisher(
-                Float64, PIVOT_CMD_POSITION.name, publisher_qos(PIVOT_CMD_POSITION)
-            )
+            suite_publisher(self, Float64, PIVOT_CMD_POSITION)
             if steering.command(0.0).pivot_shift_m is not None
             else None
         )
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
-        )
+        self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
         self.create_subscription(Twist, CMD_VEL.name, self._on_cmd_vel, subscriber_qos(CMD_VEL))
         self.create_subscription(
             PoseStamped, GOAL_POSE.name, self._on_goal, subscriber_qos(GOAL_POSE)

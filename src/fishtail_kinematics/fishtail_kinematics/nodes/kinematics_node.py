@@ -43,9 +43,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    publisher_qos,
     run_node,
     subscriber_qos,
+    suite_publisher,
 )
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -150,9 +150,7 @@ class KinematicsNode(SuiteNodeBase):
         self.joint_publisher = ListenedPublisher(self, JointState, TAIL_JOINT_STATES)
         self.tip_publisher = ListenedPublisher(self, PointStamped, TAIL_TIP)
         self.state_publisher = ListenedPublisher(self, TailState, TAIL_STATE)
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
-        )
+        self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
         self.create_subscription(
             JointState, INPUT_TOPIC, self._on_motor_state, subscriber_qos(MOTOR_JOINT_STATE)
         )

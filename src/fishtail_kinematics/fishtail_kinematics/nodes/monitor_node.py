@@ -36,9 +36,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    publisher_qos,
     run_node,
     subscriber_qos,
+    suite_publisher,
 )
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.input_guard import (
@@ -146,12 +146,8 @@ class MonitorNode(SuiteNodeBase):
         self.beat_simulated_speed_max_age_s = 0.0
 
         # Transient local: a subscriber that joins late still gets the latest verdict.
-        self.report_publisher = self.create_publisher(
-            SymmetryReport, TAIL_SYMMETRY.name, publisher_qos(TAIL_SYMMETRY)
-        )
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
-        )
+        self.report_publisher = suite_publisher(self, SymmetryReport, TAIL_SYMMETRY)
+        self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
         self.create_subscription(TailState, INPUT_TOPIC, self._on_state, subscriber_qos(TAIL_STATE))
         self.create_subscription(
             Float64, MOTOR_CMD_SPEED.name, self._on_command, subscriber_qos(MOTOR_CMD_SPEED)

@@ -38,9 +38,9 @@ from fishtail_common.ros import (
     SuiteNodeBase,
     declare,
     diagnostic_array,
-    publisher_qos,
     run_node,
     subscriber_qos,
+    suite_publisher,
 )
 from fishtail_common.stream_timing import StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -187,12 +187,8 @@ class SimNode(SuiteNodeBase):
         self.odom.header.frame_id = WORLD_FRAME
         self.odom.child_frame_id = BODY_FRAME
         self.odom_publisher = ListenedPublisher(self, Odometry, FISH_ODOM)
-        self.figures_publisher = self.create_publisher(
-            SwimFigures, FISH_SWIMMING.name, publisher_qos(FISH_SWIMMING)
-        )
-        self.diagnostics_publisher = self.create_publisher(
-            DiagnosticArray, DIAGNOSTICS.name, publisher_qos(DIAGNOSTICS)
-        )
+        self.figures_publisher = suite_publisher(self, SwimFigures, FISH_SWIMMING)
+        self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
         self.create_subscription(
             JointState, INPUT_TOPIC, self._on_motor_state, subscriber_qos(MOTOR_JOINT_STATE)
         )

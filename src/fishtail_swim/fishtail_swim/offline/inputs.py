@@ -63,7 +63,8 @@ NODE_MODULE_NAMES = frozenset({
     "beat_timeout_sec", "control_rate_hz", "frame_id", "markers_path_length", "markers_rate_hz",
     "markers_trail_length", "max_step_sec", "odom_timeout_sec", "publish_tf",
 })  # fmt: skip
-ROS_NAMES = frozenset({"use_sim_time", "start_type_description_service"})
+#: Parameters ROS itself declares (qos_overrides: per publisher, README "QoS overrides").
+ROS_NAMES = frozenset({"use_sim_time", "start_type_description_service", "qos_overrides"})
 
 
 class Swimmer(NamedTuple):
