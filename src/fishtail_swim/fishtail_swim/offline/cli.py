@@ -1,4 +1,4 @@
-"""``fishtail-swim``: steady swimming, runs to CSV, figures, GIF, motor sizing, steady turns.
+"""``fishtail-swim``: steady swimming, runs to CSV, figures, GIF, motor sizing, turns, URDF.
 
 The tail comes from a kinematics parameter file (``--config config/oscillatory.yaml``), the fish
 from ``--fish`` (``config/fish.yaml``); flags named after the parameters override both. Bad input
@@ -68,6 +68,7 @@ from fishtail_swim.offline.steady_table import check_rows, checked_indices, stea
 from fishtail_swim.offline.tables import Column, write_table
 from fishtail_swim.offline.time_run import SUMMARY_BEATS, run_figures, run_from_rest
 from fishtail_swim.offline.turning import add_turning_parser, run_turning
+from fishtail_swim.offline.urdf_command import add_urdf_parser, run_urdf
 
 DEFAULT_SPEEDS = "2,4,8,12,16"
 #: How many carrier speeds --speed-range spreads from the first to the last.
@@ -170,6 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_fit_parser(commands, swimmer)
     _add_motor_parser(commands, swimmer)
     add_turning_parser(commands, swimmer)
+    add_urdf_parser(commands, swimmer)
     return parser
 
 
@@ -516,6 +518,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "fit": run_fit,
         "motor": run_motor,
         "turning": run_turning,
+        "urdf": run_urdf,
     }[arguments.command]
     try:
         command(arguments, sys.stdout)
