@@ -57,13 +57,13 @@ from fishtail_common.interface import (
     MECHANISM_CODES,
     MOTOR_CMD_PROFILE,
     MOTOR_JOINT_STATE,
+    ODOM_FRAME,
     PILOT_NODE,
     PIVOT_CMD_POSITION,
     SUITE_NODES,
     SWIM_NODE,
     TAIL_JOINT_STATES,
     TAIL_STATE,
-    WORLD_FRAME,
 )
 from fishtail_common.ros import publisher_qos
 from fishtail_common.testing import (
@@ -169,7 +169,7 @@ class SoakProbe:
         self.route = GoalRoute(square_route(SQUARE_SIDE_M), float(GOAL_TOLERANCE.default))
         self.reached_ns: list[int] = []
         self.goal = PoseStamped()
-        self.goal.header.frame_id = WORLD_FRAME
+        self.goal.header.frame_id = ODOM_FRAME
         self.goal_publisher = probe.node.create_publisher(
             PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE)
         )

@@ -72,7 +72,7 @@ class SwimStream:
         self.ros = ros
         self.on = True
         self.message = SwimFigures(mean_speed_m_s=speed_m_s, beat_frequency_hz=2.0)
-        self.message.header.frame_id = "world"
+        self.message.header.frame_id = "odom"
         self.publisher = ros.node.create_publisher(
             SwimFigures, FISH_SWIMMING.name, publisher_qos(FISH_SWIMMING)
         )

@@ -11,12 +11,12 @@ import math
 import time
 
 import pytest
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 
-from fishtail_common.interface import CMD_VEL, FISH_ODOM, MOTOR_CMD_PROFILE, Level
+from fishtail_common.interface import CMD_VEL, FISH_ODOM, GOAL_POSE, MOTOR_CMD_PROFILE, Level
 from fishtail_common.ros import publisher_qos
 from fishtail_msgs.msg import CarrierSpeedProfile
 
@@ -30,9 +30,10 @@ ODOM_PERIOD_S = 0.02
 class FakeFish:
     """fish/odom of a fish swimming along x at ``speed_m_s``, published by the probe."""
 
-    def __init__(self, ros, speed_m_s: float) -> None:
-        """Publish every ODOM_PERIOD_S on the probe's node."""
+    def __init__(self, ros, speed_m_s: float, frame: str = "odom") -> None:
+        """Publish every ODOM_PERIOD_S on the probe's node, in ``frame``."""
         self.ros = ros
+        self.frame = frame
         self.speed_m_s = speed_m_s
         self.x_m = 0.0
         self.publisher = ros.node.create_publisher(
@@ -48,7 +49,7 @@ class FakeFish:
             return
         message = Odometry()
         message.header.stamp = self.ros.node.get_clock().now().to_msg()
-        message.header.frame_id = "world"
+        message.header.frame_id = self.frame
         self.x_m += self.speed_m_s * ODOM_PERIOD_S
         message.pose.pose.position.x = self.x_m
         message.pose.pose.orientation.w = 1.0
@@ -115,6 +116,35 @@ def test_a_turn_beyond_reach_is_reported_with_the_achievable_rate(start_node, ro
     # At most 0.48 rad a beat (the map's strongest left turn) at 0.3 / 0.287 beats a second.
     assert 0.2 < achievable < 0.6
     assert "beyond reach" in status.message
+
+
+def test_goals_are_flown_in_the_odometry_frame_and_refused_in_another(start_node, ros):
+    """A goal in ``map`` is refused with a WARN naming it; in the odometry's frame it is flown."""
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    diagnostics = ros.record_diagnostics()
+    start_pilot(start_node, ros, cmd_timeout_sec=0.0)
+    FakeFish(ros, 0.1, frame="fish1/odom")
+    goals = ros.node.create_publisher(PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE))
+
+    def goal(frame: str) -> PoseStamped:
+        message = PoseStamped()
+        message.header.frame_id = frame
+        message.pose.position.x = 3.0
+        return message
+
+    ros.spin_for(0.5)  # the pilot has the odometry's frame
+    goals.publish(goal("map"))
+    ros.spin_until(
+        lambda: any(
+            level == Level.WARN and "'map' refused" in status.message
+            for _, level, status in ros.statuses(diagnostics, "pilot")
+        ),
+        TIMEOUT_S,
+        "a WARN refusing the goal in map",
+    )
+    assert not any(p.mean_speed > 0.0 for p in profiles), "a goal in map was flown"
+    goals.publish(goal("fish1/odom"))
+    ros.spin_until(lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "the goal flown")
 
 
 def test_odometry_that_stops_stops_the_carrier_until_it_is_back(start_node, ros):

@@ -50,7 +50,7 @@ def test_a_goal_three_metres_away_is_reached_and_the_carrier_stops(start_node, r
     diagnostics = ros.record_diagnostics()
     start_loop(start_node, ros, fish_and_tail)
     goal = PoseStamped()
-    goal.header.frame_id = "world"
+    goal.header.frame_id = "odom"
     goal.pose.position.x, goal.pose.position.y = GOAL
     ros.node.create_publisher(PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE)).publish(goal)
 

@@ -115,7 +115,7 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     x, y, psi, u, v, r = follower.state[0]
     pose, twist = last.pose.pose, last.twist.twist
     published_psi = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
-    assert last.header.frame_id == "world" and last.child_frame_id == "base_link"
+    assert last.header.frame_id == "odom" and last.child_frame_id == "base_link"
     distance = math.hypot(x, y)
     assert pose.position.x == pytest.approx(x, abs=REPLAY_RELATIVE * distance)
     assert pose.position.y == pytest.approx(y, abs=REPLAY_RELATIVE * distance)
@@ -137,7 +137,7 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     assert [m.beat_index for m in received] == list(range(len(received)))
     for message in received:
         assert math.isfinite(message.mean_speed_m_s) and message.mean_speed_m_s > 0.0
-        assert message.header.frame_id == "world"
+        assert message.header.frame_id == "odom"
         expected = replayed.get(message.beat_index)
         if expected is not None:
             assert message.mean_speed_m_s == pytest.approx(
@@ -164,7 +164,7 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     ros.wait_for_messages(markers, 2, STREAM_TIMEOUT_S, FISH_MARKERS.name)
     drawn = {marker.ns: marker for marker in markers.messages[-1].markers}
     assert set(drawn) == {"body", "path", "tail"}
-    assert all(marker.header.frame_id == "world" for marker in drawn.values())
+    assert all(marker.header.frame_id == "odom" for marker in drawn.values())
     assert len(drawn["body"].points) > 10 and len(drawn["tail"].points) == 2
 
     def swim_ok() -> bool:

@@ -1,7 +1,7 @@
 """The swimming simulator's tf, received from the running node (driver + simulator processes).
 
 Where tf2_msgs is installed (every ROS 2 install; the wheels have none), the simulator broadcasts
-world -> base_link on /tf with each fish/odom message and base_link -> tail_mechanism on
+odom -> base_link on /tf with each fish/odom message and base_link -> tail_mechanism on
 /tf_static; the tests check both against the odometry and the fish's parameters. Where it is not,
 the simulator runs without tf and says so; that is checked everywhere, with tf2_msgs hidden from
 the simulator's process where it is installed.
@@ -22,10 +22,10 @@ from fishtail_common.interface import (
     BODY_FRAME,
     FISH_ODOM,
     MOTOR_JOINT_STATE,
+    ODOM_FRAME,
     TAIL_FRAME,
     TF,
     TF_STATIC,
-    WORLD_FRAME,
 )
 from fishtail_plant.values import read_fish_values
 from fishtail_swim.frames import TAIL_IN_BODY_ROTATION, FrameTransform
@@ -86,8 +86,9 @@ def test_simulator_puts_the_fish_and_its_tail_on_tf(start_node, ros, fish_parame
     # Until the fish has moved: on a loaded machine the command can reach the driver after the
     # first samples, and a fish still at the origin proves nothing about the transforms.
     ros.spin_until(
-        lambda: len(odom) >= SAMPLES and len(dynamic) >= SAMPLES
-        and odom[-1].pose.pose.position.x > 0.0,
+        lambda: (
+            len(odom) >= SAMPLES and len(dynamic) >= SAMPLES and odom[-1].pose.pose.position.x > 0.0
+        ),
         STREAM_TIMEOUT_S,
         f"{SAMPLES} messages on {FISH_ODOM.name} and {TF.name} (so far {len(odom)}, "
         f"{len(dynamic)}) with the fish moved forward",
@@ -98,13 +99,13 @@ def test_simulator_puts_the_fish_and_its_tail_on_tf(start_node, ros, fish_parame
     )
     ros.wait_for_messages(static, 1, STREAM_TIMEOUT_S, TF_STATIC.name)
 
-    # world -> base_link: one transform per message, the odometry's pose at the odometry's stamp.
+    # odom -> base_link: one transform per message, the odometry's pose at the odometry's stamp.
     poses = {ros.stamp_ns(message): message.pose.pose for message in odom}
     stamps = []
     matched = 0
     for message in dynamic:
         (transform,) = message.transforms
-        assert (transform.header.frame_id, transform.child_frame_id) == (WORLD_FRAME, BODY_FRAME)
+        assert (transform.header.frame_id, transform.child_frame_id) == (ODOM_FRAME, BODY_FRAME)
         stamp = ros.stamp_ns(transform)
         stamps.append(stamp)
         pose = poses.get(stamp)
@@ -136,6 +137,45 @@ def test_simulator_puts_the_fish_and_its_tail_on_tf(start_node, ros, fish_parame
     assert o_world[:2] == pytest.approx(expected, abs=1e-12)
 
     assert wait_for_swim_values(ros, diagnostics)["tf"] == "on"
+
+
+@pytest.mark.skipif(not HAVE_TF2_MSGS, reason=NO_TF2_MSGS)
+def test_the_frames_are_parameters_and_the_odometry_says_it_is_exact(
+    start_node, ros, fish_parameters
+):
+    """odom_frame_id / base_frame_id name every frame the fish uses: odometry, tf, markers."""
+    from tf2_msgs.msg import TFMessage
+    from visualization_msgs.msg import MarkerArray
+
+    from fishtail_swim.nodes.sim_node import EXACT_VARIANCE
+
+    frames = {"odom_frame_id": "fish1/odom", "base_frame_id": "fish1/base_link"}
+    odom = ros.record(Odometry, FISH_ODOM.name)
+    dynamic = ros.record(TFMessage, TF.name, QoSProfile(depth=100))
+    markers = ros.record(MarkerArray, "fish/markers", 10)
+    start_node("driver", params={"cmd_timeout_sec": 0.0})
+    start_node(SIM_MODULE, name="swim", params_file=fish_parameters, params=frames)
+    ros.wait_for_subscribers(MOTOR_JOINT_STATE.name)
+    ros.command_speed(SPEED_RAD_S)
+    ros.spin_until(
+        lambda: len(odom) >= 10 and len(dynamic) >= 10 and len(markers) >= 1,
+        STREAM_TIMEOUT_S,
+        "odometry, tf and markers",
+    )
+    static = ros.record(
+        TFMessage, TF_STATIC.name, QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    )
+    ros.wait_for_messages(static, 1, STREAM_TIMEOUT_S, TF_STATIC.name)
+    message = odom[-1]
+    assert (message.header.frame_id, message.child_frame_id) == ("fish1/odom", "fish1/base_link")
+    for covariance in (message.pose.covariance, message.twist.covariance):
+        assert list(covariance) == [EXACT_VARIANCE if i % 7 == 0 else 0.0 for i in range(36)]
+    (transform,) = dynamic[-1].transforms
+    assert (transform.header.frame_id, transform.child_frame_id) == (
+        "fish1/odom", "fish1/base_link"
+    )  # fmt: skip
+    assert static[0].transforms[0].header.frame_id == "fish1/base_link"
+    assert {marker.header.frame_id for marker in markers[-1].markers} == {"fish1/odom"}
 
 
 @pytest.mark.skipif(not HAVE_TF2_MSGS, reason=NO_TF2_MSGS)

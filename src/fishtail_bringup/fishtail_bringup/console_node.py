@@ -22,9 +22,9 @@ from fishtail_common.interface import (
     GOAL_POSE,
     MOTOR_CMD_SPEED,
     MOTOR_JOINT_STATE,
+    ODOM_FRAME,
     TAIL_STATE,
     TAIL_SYMMETRY,
-    WORLD_FRAME,
 )
 
 #: How often the carrier speed is sent (the driver's watchdog wants it at least every 0.5 s).
@@ -99,7 +99,7 @@ class Console:
             from geometry_msgs.msg import PoseStamped
 
             self.goal = PoseStamped()
-            self.goal.header.frame_id = WORLD_FRAME
+            self.goal.header.frame_id = ODOM_FRAME
             self.goal_publisher = self.node.create_publisher(
                 PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE)
             )

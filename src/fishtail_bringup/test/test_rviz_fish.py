@@ -15,8 +15,8 @@ from fishtail_common.interface import (
     BODY_FRAME,
     FISH_MARKERS,
     FISH_ODOM,
+    ODOM_FRAME,
     TAIL_MARKERS,
-    WORLD_FRAME,
     Topic,
 )
 
@@ -40,7 +40,7 @@ def displays_of(manager, class_name):
 
 
 def test_fixed_frame_is_the_world_the_fish_swims_in(manager):
-    assert manager["Global Options"]["Fixed Frame"] == WORLD_FRAME
+    assert manager["Global Options"]["Fixed Frame"] == ODOM_FRAME
 
 
 @pytest.mark.parametrize("class_name", sorted(SHOWN))

@@ -186,8 +186,9 @@ CARRIER_JOINT = "carrier_joint"
 PIVOT_JOINT = "pivot_joint"
 #: The frame of the tail mechanism: origin at the ring-gear centre O, x along the stroke.
 TAIL_FRAME = "tail_mechanism"
-#: The fixed frame the simulated fish swims in (x, y horizontal, z up).
-WORLD_FRAME = "world"
+#: The simulated fish's odometry frame (REP 105: continuous, drifting; ``map`` would sit above
+#: it for global goals): x, y horizontal, z up. The simulator's ``odom_frame_id`` default.
+ODOM_FRAME = "odom"
 #: The simulated fish's body frame (REP 103): origin at its centre of mass, x forward, y left.
 BODY_FRAME = "base_link"
 #: fishtail_msgs/TailState.mechanism of each mechanism (its MECHANISM_* constants).

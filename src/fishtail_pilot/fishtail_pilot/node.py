@@ -26,8 +26,8 @@ from fishtail_common.interface import (
     FISH_ODOM,
     GOAL_POSE,
     MOTOR_CMD_PROFILE,
+    ODOM_FRAME,
     PIVOT_CMD_POSITION,
-    WORLD_FRAME,
     Level,
     Status,
 )
@@ -103,6 +103,8 @@ class PilotNode(SuiteNodeBase):
             self._apply(spec.name, float(values[spec.name]))
         self.last_cmd_ns: int | None = None
         self.last_odom_ns: int | None = None
+        #: The odometry's frame (the simulator's odom_frame_id), where goals are flown.
+        self.odom_frame = ODOM_FRAME
         self.last_sent_ns: int | None = None
         # The carrier is taken as stopped at start-up: an idle pilot sends nothing until it has
         # something to move (manual commands beside it stay in charge).
@@ -179,8 +181,13 @@ class PilotNode(SuiteNodeBase):
 
     def _on_goal(self, message: PoseStamped) -> None:
         frame = message.header.frame_id
-        if frame not in ("", WORLD_FRAME):
-            self._refuse(f"goal_pose in frame {frame!r} refused: goals are in {WORLD_FRAME!r}")
+        if frame not in ("", self.odom_frame):
+            # No tf here to relate another frame (map, ...) to the odometry: refused, never
+            # flown as if it were the odometry frame.
+            self._refuse(
+                f"goal_pose in frame {frame!r} refused: goals are in the odometry frame "
+                f"{self.odom_frame!r} (or an empty frame_id)"
+            )
             return
         position = message.pose.position
         reason = self.pilot.set_goal(float(position.x), float(position.y))
@@ -196,6 +203,8 @@ class PilotNode(SuiteNodeBase):
         )
 
     def _on_odom(self, message: Odometry) -> None:
+        if message.header.frame_id:
+            self.odom_frame = message.header.frame_id
         now_ns = self._now_ns()
         self.last_odom_ns = now_ns
         if self.odometry_lost:

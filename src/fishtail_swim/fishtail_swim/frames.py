@@ -1,10 +1,10 @@
-"""The simulated fish's tf frames in plain numbers: world -> base_link -> tail_mechanism.
+"""The simulated fish's tf frames in plain numbers: odom -> base_link -> tail_mechanism.
 
-``world`` -> ``base_link`` moves with the fish (C at (X, Y, 0), turned by the yaw about z), while
-``base_link`` -> ``tail_mechanism`` is fixed (O at x = -l_O on the body axis, turned by pi about
-y). Plain Python, so that the transforms are tested without ROS; the node turns them into
-messages. Conventions (tf2's, quaternions (x, y, z, w)): docs/swimming-dynamics.md ("Frames and
-signs", "tf").
+``odom`` -> ``base_link`` (REP 105; the simulator's parameters name them) moves with the fish (C
+at (X, Y, 0), turned by the yaw about z), while ``base_link`` -> ``tail_mechanism`` is fixed (O at
+x = -l_O on the body axis, turned by pi about y). Plain Python, so that the transforms are tested
+without ROS; the node turns them into messages. Conventions (tf2's, quaternions (x, y, z, w)):
+docs/swimming-dynamics.md ("Frames and signs", "tf").
 
 >>> tail_in_body(0.05).apply((0.1, 0.02, 0.0))
 (-0.15000000000000002, 0.02, 0.0)
@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from fishtail_common.interface import BODY_FRAME, TAIL_FRAME, WORLD_FRAME
+from fishtail_common.interface import BODY_FRAME, ODOM_FRAME, TAIL_FRAME
 
 Vector = tuple[float, float, float]
 #: A unit quaternion (x, y, z, w).
@@ -57,13 +57,15 @@ def yaw_quaternion(psi: float) -> Quaternion:
     return (0.0, 0.0, math.sin(half), math.cos(half))
 
 
-def body_in_world(x: float, y: float, psi: float) -> FrameTransform:
-    """``world`` -> ``base_link`` of a fish with its centre of mass at (x, y) and yaw ``psi``."""
-    return FrameTransform(WORLD_FRAME, BODY_FRAME, (x, y, 0.0), yaw_quaternion(psi))
+def body_in_odom(
+    x: float, y: float, psi: float, odom_frame: str = ODOM_FRAME, body_frame: str = BODY_FRAME
+) -> FrameTransform:
+    """``odom`` -> ``base_link`` of a fish with its centre of mass at (x, y) and yaw ``psi``."""
+    return FrameTransform(odom_frame, body_frame, (x, y, 0.0), yaw_quaternion(psi))
 
 
-def tail_in_body(tail_origin_offset_m: float) -> FrameTransform:
+def tail_in_body(tail_origin_offset_m: float, body_frame: str = BODY_FRAME) -> FrameTransform:
     """``base_link`` -> ``tail_mechanism``: O at x = -``tail_origin_offset_m``, π about y."""
     return FrameTransform(
-        BODY_FRAME, TAIL_FRAME, (-tail_origin_offset_m, 0.0, 0.0), TAIL_IN_BODY_ROTATION
+        body_frame, TAIL_FRAME, (-tail_origin_offset_m, 0.0, 0.0), TAIL_IN_BODY_ROTATION
     )

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from fishtail_common.interface import BODY_FRAME, TAIL_FRAME, WORLD_FRAME
+from fishtail_common.interface import BODY_FRAME, ODOM_FRAME, TAIL_FRAME
 from fishtail_swim.frames import (
     TAIL_IN_BODY_ROTATION,
     FrameTransform,
-    body_in_world,
+    body_in_odom,
     tail_in_body,
     yaw_quaternion,
 )
@@ -40,9 +40,9 @@ def test_yaw_quaternion_is_a_turn_about_z(psi):
 
 
 @pytest.mark.parametrize("psi", ANGLES)
-def test_body_in_world_puts_the_centre_of_mass_and_heading(psi):
-    transform = body_in_world(1.5, -0.25, psi)
-    assert (transform.parent, transform.child) == (WORLD_FRAME, BODY_FRAME)
+def test_body_in_odom_puts_the_centre_of_mass_and_heading(psi):
+    transform = body_in_odom(1.5, -0.25, psi)
+    assert (transform.parent, transform.child) == (ODOM_FRAME, BODY_FRAME)
     assert transform.translation == (1.5, -0.25, 0.0)
     assert transform.rotation == yaw_quaternion(psi)
     # The body's x axis (forward) points along the heading, its z stays up.

@@ -18,7 +18,7 @@ from rclpy.timer import Timer
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from fishtail_common.interface import FISH_MARKERS, WORLD_FRAME
+from fishtail_common.interface import FISH_MARKERS
 from fishtail_common.parameters import ParameterSpec
 from fishtail_common.ros import ListenedPublisher
 from fishtail_kinematics.engine.mechanisms import Tail
@@ -45,9 +45,9 @@ MARKER_PARAMETERS = (MARKERS_RATE, MARKERS_PATH_LENGTH)
 _LINE_WIDTH_M = 0.01
 
 
-def _line_strip(namespace: str, colour: tuple[float, float, float, float]) -> Marker:
+def _line_strip(frame: str, namespace: str, colour: tuple[float, float, float, float]) -> Marker:
     marker = Marker()
-    marker.header.frame_id = WORLD_FRAME
+    marker.header.frame_id = frame
     marker.ns = namespace
     marker.id = 0
     marker.type = Marker.LINE_STRIP
@@ -71,8 +71,10 @@ class FishMarkerPublisher:
         tail_origin_offset_m: float,
         rate_hz: float,
         path_length: int,
+        frame: str,
     ) -> None:
-        """Create the publisher and, unless ``rate_hz`` is 0, the timer."""
+        """Create the publisher and, unless ``rate_hz`` is 0, the timer; markers in ``frame``."""
+        self.frame = frame
         self.tail = tail
         self.tail_origin_offset_m = tail_origin_offset_m
         #: The outline in the body frame, (outline.OUTLINE_POINTS, 2).
@@ -84,9 +86,9 @@ class FishMarkerPublisher:
         self.published = 0
         self._path_source: FloatArray | None = None
         self._delete_all = True
-        self._body = _line_strip("body", (0.2, 0.5, 0.9, 1.0))
-        self._path = _line_strip("path", (0.9, 0.9, 0.2, 0.8))
-        self._tail = _line_strip("tail", (0.9, 0.3, 0.2, 1.0))
+        self._body = _line_strip(frame, "body", (0.2, 0.5, 0.9, 1.0))
+        self._path = _line_strip(frame, "path", (0.9, 0.9, 0.2, 0.8))
+        self._tail = _line_strip(frame, "tail", (0.9, 0.3, 0.2, 1.0))
         self.timer: Timer | None = None
         if rate_hz > 0.0:
             self.timer = node.create_timer(1.0 / rate_hz, self.on_tick)
@@ -122,7 +124,7 @@ class FishMarkerPublisher:
         markers = []
         if self._delete_all:
             clear = Marker()
-            clear.header.frame_id = WORLD_FRAME
+            clear.header.frame_id = self.frame
             clear.header.stamp = stamp
             clear.action = Marker.DELETEALL
             markers.append(clear)

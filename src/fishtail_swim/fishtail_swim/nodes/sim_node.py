@@ -20,14 +20,12 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 
 from fishtail_common.interface import (
-    BODY_FRAME,
     DIAGNOSTICS,
     FISH_ODOM,
     FISH_SWIMMING,
     MOTOR_JOINT_STATE,
     PIVOT_JOINT,
     PIVOT_JOINT_STATE,
-    WORLD_FRAME,
     Level,
     Status,
 )
@@ -78,7 +76,14 @@ from fishtail_swim.nodes.fish_markers import (
     MARKERS_RATE,
     FishMarkerPublisher,
 )
-from fishtail_swim.nodes.fish_tf import PUBLISH_TF, FishTfBroadcaster, tf_message_type
+from fishtail_swim.nodes.fish_tf import (
+    BASE_FRAME_ID,
+    FRAME_PARAMETERS,
+    ODOM_FRAME_ID,
+    PUBLISH_TF,
+    FishTfBroadcaster,
+    tf_message_type,
+)
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time
@@ -118,14 +123,18 @@ PARAMETERS: tuple[ParameterSpec, ...] = read_only(
         MAX_CARRIER_SPEED,
         *MARKER_PARAMETERS,
         PUBLISH_TF,
+        *FRAME_PARAMETERS,
     )
 )
+#: The odometry's variances: the state is the integrator's, exact for the model, so nearly 0; not
+#: 0, for filters that invert the covariance (robot_localization).
+EXACT_VARIANCE = 1e-9
 
 
-def figures_message(beat: BeatFigures, stamp_ns: int) -> SwimFigures:
+def figures_message(beat: BeatFigures, stamp_ns: int, frame: str) -> SwimFigures:
     """The SwimFigures message of one beat, ending at ``stamp_ns`` (ns since the epoch)."""
     message = SwimFigures()
-    message.header.frame_id = WORLD_FRAME
+    message.header.frame_id = frame
     message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
     message.beat_index = beat.beat_index
     message.beat_frequency_hz = beat.frequency_hz
@@ -183,9 +192,14 @@ class SimNode(SuiteNodeBase):
         self._accepted_ns: int | None = None
         self.tail_name = tail.name
 
+        self.odom_frame = str(values[ODOM_FRAME_ID.name])
+        self.base_frame = str(values[BASE_FRAME_ID.name])
         self.odom = Odometry()
-        self.odom.header.frame_id = WORLD_FRAME
-        self.odom.child_frame_id = BODY_FRAME
+        self.odom.header.frame_id = self.odom_frame
+        self.odom.child_frame_id = self.base_frame
+        for index in range(0, 36, 7):  # the diagonals
+            self.odom.pose.covariance[index] = EXACT_VARIANCE
+            self.odom.twist.covariance[index] = EXACT_VARIANCE
         self.odom_publisher = ListenedPublisher(self, Odometry, FISH_ODOM)
         self.figures_publisher = suite_publisher(self, SwimFigures, FISH_SWIMMING)
         self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
@@ -209,11 +223,14 @@ class SimNode(SuiteNodeBase):
             float(fish.tail_origin_offset_m),
             float(values[MARKERS_RATE.name]),
             int(values[MARKERS_PATH_LENGTH.name]),
+            self.odom_frame,
         )
         self.tf: FishTfBroadcaster | None = None
         tf_type = tf_message_type() if values[PUBLISH_TF.name] else None
         if tf_type is not None:
-            self.tf = FishTfBroadcaster(self, tf_type, float(fish.tail_origin_offset_m))
+            self.tf = FishTfBroadcaster(
+                self, tf_type, float(fish.tail_origin_offset_m), self.odom_frame, self.base_frame
+            )
             self.tf_state = "on"
         elif values[PUBLISH_TF.name]:
             # Where ROS 2 comes from the wheels (they have no tf2_msgs) this is the normal case,
@@ -316,7 +333,7 @@ class SimNode(SuiteNodeBase):
         if follower.finished:
             for beat in follower.take_beats():
                 end_ns = follower.first_stamp_ns + round(beat.end_time_s * 1e9)
-                self.figures_publisher.publish(figures_message(beat, end_ns))
+                self.figures_publisher.publish(figures_message(beat, end_ns, self.odom_frame))
 
     def _continues(self, stamp_ns: int, angle_rad: float) -> bool:
         """True if the sample follows on from the follower's last one (stamp and angle)."""

@@ -60,8 +60,9 @@ DEFAULT_MECHANISM = "oscillatory"
 #: reader does not), and those rclpy declares in every node. test_cli_config_names.py checks
 #: :func:`suite_parameter_names` against the nodes' own PARAMETERS.
 NODE_MODULE_NAMES = frozenset({
-    "beat_timeout_sec", "control_rate_hz", "frame_id", "markers_path_length", "markers_rate_hz",
-    "markers_trail_length", "max_step_sec", "odom_timeout_sec", "publish_tf",
+    "base_frame_id", "beat_timeout_sec", "control_rate_hz", "frame_id", "markers_path_length",
+    "markers_rate_hz", "markers_trail_length", "max_step_sec", "odom_frame_id", "odom_timeout_sec",
+    "publish_tf",
 })  # fmt: skip
 #: Parameters ROS itself declares (qos_overrides: per publisher, README "QoS overrides").
 ROS_NAMES = frozenset({"use_sim_time", "start_type_description_service", "qos_overrides"})
