@@ -21,6 +21,7 @@ from launch.conditions import IfCondition
 from launch.substitution import Substitution
 from launch.substitutions import (
     AndSubstitution,
+    Command,
     EqualsSubstitution,
     IfElseSubstitution,
     LaunchConfiguration,
@@ -30,7 +31,8 @@ from launch.substitutions import (
 )
 from launch.utilities import normalize_to_list_of_substitutions, perform_substitutions
 from launch_ros.actions import Node
-from launch_ros.substitutions import FindPackageShare
+from launch_ros.parameter_descriptions import ParameterValue
+from launch_ros.substitutions import FindPackagePrefix, FindPackageShare
 
 from fishtail_bringup.own_parameters import write_own_parameters
 from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SWIM_NODE, VIEW_NODE
@@ -197,6 +199,35 @@ def generate_launch_description():
     fish_params = PathJoinSubstitution(
         [FindPackageShare("fishtail_bringup"), "config", "fish.yaml"]
     )
+    # The fish's URDF (fishtail-swim urdf) of params_file's tail and fish_params_file's fish,
+    # driven by the kinematics node's tail/joint_states (docs/visualisation.md, "Robot model").
+    fishtail_swim = PathJoinSubstitution(
+        [FindPackagePrefix("fishtail_swim"), "lib", "fishtail_swim", "fishtail-swim"]
+    )
+    robot_model = Node(
+        package="robot_state_publisher",
+        executable="robot_state_publisher",
+        namespace=namespace,
+        parameters=[
+            {
+                "robot_description": ParameterValue(
+                    Command(
+                        [
+                            fishtail_swim,
+                            " urdf --config ",
+                            params_file,
+                            " --fish ",
+                            fish_params_file,
+                        ]
+                    ),
+                    value_type=str,
+                )
+            }
+        ],
+        remappings=[("joint_states", "tail/joint_states")],
+        output="screen",
+        condition=IfCondition(LaunchConfiguration("robot_model", default="false")),
+    )
     return LaunchDescription(
         [
             DeclareLaunchArgument(
@@ -257,10 +288,18 @@ def generate_launch_description():
                 + " or ".join(STEERING.choices)
                 + " (pivot gives the driver its simulated pivot actuator)",
             ),
+            DeclareLaunchArgument(
+                "robot_model",
+                default_value="false",
+                description="true: also start robot_state_publisher with the fish's URDF "
+                "(fishtail-swim urdf of params_file and fish_params_file), driven by "
+                "tail/joint_states, for RViz's RobotModel display (a system ROS 2 install)",
+            ),
             *nodes,
             *containers,
             simulator,
             pilot_node,
             view,
+            robot_model,
         ]
     )

@@ -68,7 +68,7 @@ def test_declares_the_arguments(description):
     names = [argument.name for argument in description.get_launch_arguments()]
     assert names == [
         "mechanism", "params_file", "namespace", "backend", "motor_model", "motor_load", "swim",
-        "fish_params_file", "view", "one_process", "pilot", "steering",
+        "fish_params_file", "view", "one_process", "pilot", "steering", "robot_model",
     ]  # fmt: skip
 
 
@@ -234,3 +234,34 @@ def test_pilot_adds_the_simulator_and_the_pilot_with_its_steering(description, s
         context, normalize_parameters(launched["driver"]._Node__parameters)
     )[-1]
     assert own_values(driver_file, "driver")["pivot_actuator"] == actuator
+
+
+def test_robot_model_adds_robot_state_publisher_on_the_tails_joint_states(description):
+    """robot_model:=true: robot_state_publisher, the URDF from fishtail-swim urdf of both files."""
+    context = launch.LaunchContext()
+    context.launch_configurations.update(
+        one_process="false", swim="false", view="false", pilot="false", robot_model="true",
+        params_file="tail.yaml", fish_params_file="fish.yaml", namespace="",
+    )  # fmt: skip
+    (publisher,) = [
+        e
+        for e in description.entities
+        if isinstance(e, launch_ros_actions.Node) and e.node_package == "robot_state_publisher"
+    ]
+    assert publisher.condition.evaluate(context)
+    assert publisher.node_executable == "robot_state_publisher"
+    remappings = [
+        tuple(perform_substitutions(context, list(part)) for part in pair)
+        for pair in publisher._Node__remappings
+    ]
+    assert remappings == [("joint_states", "tail/joint_states")]
+    (values,) = publisher._Node__parameters
+    ((name, description_value),) = values.items()
+    assert perform_substitutions(context, list(name)) == "robot_description"
+    # The Command's words, not run here (robot_state_publisher is a system ROS 2 package).
+    (command,) = description_value.value
+    words = perform_substitutions(context, list(command.command))
+    assert words.endswith("/fishtail-swim urdf --config tail.yaml --fish fish.yaml"), words
+    assert "fishtail-swim" in console_scripts("fishtail_swim")
+    context.launch_configurations["robot_model"] = "false"
+    assert not publisher.condition.evaluate(context)
