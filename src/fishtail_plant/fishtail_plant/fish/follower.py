@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import copy
 import math
-from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -20,6 +19,7 @@ from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
 from fishtail_kinematics.engine.input_guard import JUMP_SPEED_MARGIN, plausible_advance_rad
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_plant.errors import SwimInputError
+from fishtail_plant.fish.beats import BeatAccumulator, BeatFigures
 from fishtail_plant.fish.figures import tail_power
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.integrator import Stepper
@@ -83,82 +83,6 @@ class LinearCarrier:
         return angle, np.full_like(angle, self.speed_rad_s), np.zeros_like(angle)
 
 
-class BeatFigures(NamedTuple):
-    """The spec's swimming figures of one complete beat (see fishtail_msgs/SwimFigures)."""
-
-    beat_index: int
-    end_time_s: float  # since the first sample
-    duration_s: float
-    frequency_hz: float
-    mean_speed_m_s: float
-    body_lengths_per_s: float
-    tip_excursion_m: float
-    strouhal_number: float
-    mean_thrust_n: float
-    mean_tail_power_w: float
-    froude_efficiency: float
-    turning_radius_m: float
-    heading_change_rad: float
-
-
-def _ratio(numerator: float, denominator: float) -> float:
-    # A figure divided by a zero speed or power: inf (or nan for 0/0), never an exception.
-    if denominator == 0.0:
-        return math.copysign(math.inf, numerator) if numerator != 0.0 else math.nan
-    return numerator / denominator
-
-
-class _BeatAccumulator:
-    """Integrals and extremes over the beat in progress, from its start state on."""
-
-    def __init__(self, time_s: float, state: FloatArray, thrust: float, power: float,
-                 tip_y: float) -> None:  # fmt: skip
-        self.start_time_s = time_s
-        self.start_pose = (float(state[0, X]), float(state[0, Y]), float(state[0, PSI]))
-        self.last_time_s = time_s
-        self.last_thrust = thrust
-        self.last_power = power
-        self.thrust_integral = 0.0
-        self.power_integral = 0.0
-        self.tip_y_low = tip_y
-        self.tip_y_high = tip_y
-
-    def add(self, time_s: float, thrust: float, power: float, tip_y: float) -> None:
-        half_step = 0.5 * (time_s - self.last_time_s)
-        self.thrust_integral += half_step * (thrust + self.last_thrust)
-        self.power_integral += half_step * (power + self.last_power)
-        self.last_time_s, self.last_thrust, self.last_power = time_s, thrust, power
-        self.tip_y_low = min(self.tip_y_low, tip_y)
-        self.tip_y_high = max(self.tip_y_high, tip_y)
-
-    def figures(self, index: int, state: FloatArray, body_length_m: float) -> BeatFigures:
-        duration = self.last_time_s - self.start_time_s
-        x0, y0, psi0 = self.start_pose
-        chord = math.hypot(float(state[0, X]) - x0, float(state[0, Y]) - y0)
-        turn = float(state[0, PSI]) - psi0
-        speed = chord / duration
-        thrust = self.thrust_integral / duration
-        power = self.power_integral / duration
-        excursion = self.tip_y_high - self.tip_y_low
-        frequency = 1.0 / duration
-        radius = chord / (2.0 * math.sin(0.5 * turn)) if turn != 0.0 else math.inf
-        return BeatFigures(
-            beat_index=index,
-            end_time_s=self.last_time_s,
-            duration_s=duration,
-            frequency_hz=frequency,
-            mean_speed_m_s=speed,
-            body_lengths_per_s=speed / body_length_m,
-            tip_excursion_m=excursion,
-            strouhal_number=_ratio(frequency * excursion, speed),
-            mean_thrust_n=thrust,
-            mean_tail_power_w=power,
-            froude_efficiency=_ratio(thrust * speed, power),
-            turning_radius_m=radius,
-            heading_change_rad=turn,
-        )
-
-
 class SwimFollower:
     """One fish, from rest at the origin, swimming with the carrier's sampled motion."""
 
@@ -209,7 +133,7 @@ class SwimFollower:
         self.first_stamp_ns = 0
         self._last_stamp_ns = 0
         self._next_boundary_rad = 0.0
-        self._beat: _BeatAccumulator | None = None
+        self._beat: BeatAccumulator | None = None
         self.beats_completed = 0
         self.sub_steps = 0
         self.restarts = 0
@@ -316,7 +240,7 @@ class SwimFollower:
                 if beat is not None:
                     index = self.beats_completed + len(finished)
                     finished.append(beat.figures(index, state, self._body_length_m))
-                beat = _BeatAccumulator(crossing, state, *self._tail_figures_now(crossing, state))
+                beat = BeatAccumulator(crossing, state, *self._tail_figures_now(crossing, state))
             state, segment_steps = self._integrate(state, beat, segment_start, end_time)
             steps += segment_steps
         except BaseException:
@@ -445,7 +369,7 @@ class SwimFollower:
         return flow.force.x[:, 0], power[:, 0], np.broadcast_to(tail.tip_y, power.shape)[:, 0]
 
     def _integrate(
-        self, state: FloatArray, beat: _BeatAccumulator | None, start_s: float, end_s: float
+        self, state: FloatArray, beat: BeatAccumulator | None, start_s: float, end_s: float
     ) -> tuple[FloatArray, int]:
         """``state`` integrated from ``start_s`` to ``end_s`` (added to ``beat``), and the steps."""
         length = end_s - start_s

@@ -60,13 +60,9 @@ from fishtail_kinematics.engine.input_guard import (
 )
 from fishtail_msgs.msg import SwimFigures
 from fishtail_plant.errors import SwimError
+from fishtail_plant.fish.beats import BeatFigures
 from fishtail_plant.fish.fish import FISH_PARAMETERS
-from fishtail_plant.fish.follower import (
-    BeatFigures,
-    CarrierJumpError,
-    StampNotIncreasingError,
-    SwimFollower,
-)
+from fishtail_plant.fish.follower import CarrierJumpError, StampNotIncreasingError, SwimFollower
 from fishtail_plant.fish.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
 from fishtail_plant.values import TAIL_PARAMETERS, fish_from_values, tail_from_values
 from fishtail_swim.frames import yaw_quaternion
