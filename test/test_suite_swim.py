@@ -73,7 +73,8 @@ def replay(samples, upto_ns, path):
     for message in samples:
         stamp = message.header.stamp.sec * 1_000_000_000 + message.header.stamp.nanosec
         if last < stamp <= upto_ns:
-            follower.follow(stamp, float(message.position[0]))
+            # With the velocity, as the node: a first sample of a turning carrier is a join.
+            follower.follow(stamp, float(message.position[0]), float(message.velocity[0]))
             last = stamp
     return follower, tail, fish
 
