@@ -65,7 +65,17 @@ FISH_PARAMETERS: tuple[ParameterSpec, ...] = (
                   "body lift coefficient C_L per radian of sideslip, on reference_area_m2",
                   "1/rad", 0.0, 100.0),
     ParameterSpec("yaw_damping_kg_m2", crossflow_yaw_damping(_LENGTH, _DIAMETER, _DENSITY),
-                  "yaw damping K_D of M = -K_D r|r|", "kg m^2", 0.0, 1e5),
+                  "yaw damping K_D of M = -K_D r|r| (Fossen's -N_|r|r)", "kg m^2", 0.0, 1e5),
+    ParameterSpec("surge_linear_damping_kg_s", 0.0,
+                  "linear surge damping X_u of F_x = -X_u u (skin friction; 0: drag quadratic)",
+                  "kg/s", 0.0, 1e5),
+    ParameterSpec("sway_linear_damping_kg_s", 0.0, "linear sway damping Y_v of F_y = -Y_v v",
+                  "kg/s", 0.0, 1e5),
+    ParameterSpec("sway_quadratic_damping_kg_m", 0.0,
+                  "sway cross-flow damping Y_|v|v of F_y = -Y_|v|v |v| v, beyond C_D's", "kg/m",
+                  0.0, 1e5),
+    ParameterSpec("yaw_linear_damping_kg_m2_s", 0.0, "linear yaw damping N_r of M = -N_r r",
+                  "kg m^2/s", 0.0, 1e5),
     ParameterSpec("reference_area_m2", math.pi * _DIAMETER**2 / 4.0,
                   "reference area S of drag and lift (the hull's frontal area)", "m^2",
                   _TINY, 100.0),
@@ -73,8 +83,12 @@ FISH_PARAMETERS: tuple[ParameterSpec, ...] = (
                   "l_O: distance from the centre of mass C back to the ring-gear centre O", "m",
                   0.0, 20.0),
     FIN_SPAN,
-    ParameterSpec("fin_chord_m", 0.0, "chord c of the rigid fin (0: no recoil term)", "m",
-                  0.0, 5.0),
+    ParameterSpec("fin_chord_m", 0.0,
+                  "chord c of the rigid fin plate forward of the trailing edge (0: no recoil or "
+                  "resistive drag)", "m", 0.0, 5.0),
+    ParameterSpec("fin_normal_drag_coefficient", 0.0,
+                  "C_n of the fin plate's quasi-steady cross-flow drag, per unit area (0: none)",
+                  "", 0.0, 10.0),
 )  # fmt: skip
 FISH_PARAMETERS_BY_NAME: dict[str, ParameterSpec] = {spec.name: spec for spec in FISH_PARAMETERS}
 
@@ -126,10 +140,15 @@ class FishParameters:
     drag_coefficient: PerFish = _field("drag_coefficient")
     lift_coefficient_per_rad: PerFish = _field("lift_coefficient_per_rad")
     yaw_damping_kg_m2: PerFish = _field("yaw_damping_kg_m2")
+    surge_linear_damping_kg_s: PerFish = _field("surge_linear_damping_kg_s")
+    sway_linear_damping_kg_s: PerFish = _field("sway_linear_damping_kg_s")
+    sway_quadratic_damping_kg_m: PerFish = _field("sway_quadratic_damping_kg_m")
+    yaw_linear_damping_kg_m2_s: PerFish = _field("yaw_linear_damping_kg_m2_s")
     reference_area_m2: PerFish = _field("reference_area_m2")
     tail_origin_offset_m: PerFish = _field("tail_origin_offset_m")
     fin_span_m: PerFish = _field("fin_span_m")
     fin_chord_m: PerFish = _field("fin_chord_m")
+    fin_normal_drag_coefficient: PerFish = _field("fin_normal_drag_coefficient")
 
     def __post_init__(self) -> None:
         """Check every value against its spec and the combined masses for positivity."""
@@ -189,6 +208,27 @@ class FishParameters:
     def drag_factor_kg_m(self) -> PerFish:
         """½ rho S C_D: the body's drag is this times V (u, v)."""
         return 0.5 * self.water_density_kg_m3 * self.reference_area_m2 * self.drag_coefficient
+
+    @property
+    def fin_drag_factor_kg_m2(self) -> PerFish:
+        """½ rho C_n d: the fin's normal force per unit chord is this times -|w| w."""
+        return 0.5 * self.water_density_kg_m3 * self.fin_normal_drag_coefficient * self.fin_span_m
+
+    @property
+    def has_linear_damping(self) -> bool:
+        """Whether any fish has a linear damping term (speed is then not proportional to f)."""
+        linear = (
+            self.surge_linear_damping_kg_s,
+            self.sway_linear_damping_kg_s,
+            self.yaw_linear_damping_kg_m2_s,
+        )
+        return any(bool(np.any(np.asarray(value) > 0.0)) for value in linear)
+
+    @property
+    def has_fin_drag(self) -> bool:
+        """Whether any fish's fin has a resistive force (C_n > 0 and c > 0)."""
+        factor = np.asarray(self.fin_normal_drag_coefficient) * np.asarray(self.fin_chord_m)
+        return bool(np.any(factor > 0.0))
 
     @property
     def lift_factor_kg_m(self) -> PerFish:

@@ -55,18 +55,85 @@ def tip_force(
 
 
 def hull_force(
-    drag_factor: Value, lift_factor: Value, yaw_damping: Value, u: Value, v: Value, r: Value
+    drag_factor: Value,
+    lift_factor: Value,
+    yaw_damping: Value,
+    surge_linear: Value,
+    sway_linear: Value,
+    sway_quadratic: Value,
+    yaw_linear: Value,
+    u: Value,
+    v: Value,
+    r: Value,
 ) -> tuple[Value, Value, Value]:
-    """Drag -½ rho S C_D V (u, v), lift ½ rho S C_L beta V (v, -u) while u > 0, -K_D r|r|.
+    """Drag -½ rho S C_D V (u, v), lift ½ rho S C_L beta V (v, -u) while u > 0, Fossen's damping.
 
-    beta = atan(v/u), which for u > 0 is atan2(v, u): finite for every (u, v), and the factor
-    (u > 0) switches the lift off going backwards or from rest without a division by zero.
+    Damping: -(X_u u, Y_v v + Y_|v|v |v| v, N_r r + K_D r|r|). beta = atan(v/u), which for u > 0
+    is atan2(v, u): finite for every (u, v), and the factor (u > 0) switches the lift off going
+    backwards or from rest without a division by zero. Zero damping coefficients add exact zeros.
     """
     speed = np.hypot(u, v)
     sideslip = np.arctan2(v, u) * (u > 0.0)
     drag = drag_factor * speed
     lift = lift_factor * sideslip * speed
-    return -drag * u + lift * v, -drag * v - lift * u, -yaw_damping * r * np.abs(r)
+    return (
+        -drag * u + lift * v - surge_linear * u,
+        -drag * v - lift * u - (sway_linear + sway_quadratic * np.abs(v)) * v,
+        -yaw_damping * r * np.abs(r) - yaw_linear * r,
+    )
+
+
+def fin_drag(
+    drag_factor: Value,
+    chord: Value,
+    origin_offset: Value,
+    tip_x: Value,
+    tip_y: Value,
+    tip_x_dot: Value,
+    tip_y_dot: Value,
+    fin_angle: Value,
+    fin_rate: Value,
+    u: Value,
+    v: Value,
+    r: Value,
+) -> tuple[Value, Value, Value, Value]:
+    """The fin plate's resistive force -k |w| w n per unit chord, k = ½ rho C_n d, integrated.
+
+    The plate runs from T forward to T + c t; its normal velocity is w(s) = w_T + s (r - th_dot)
+    at a distance s from T, so the integrals I0 = ∫|w| w ds and I1 = ∫ s |w| w ds are exact
+    piecewise polynomials, split where w changes sign. Returns the force (x, y), its moment
+    about C and its moment about T. A chord or a factor of 0 gives zeros.
+    """
+    cos_fin, sin_fin = np.cos(fin_angle), np.sin(fin_angle)
+    body_tip_x = -origin_offset - tip_x
+    body_tip_y = tip_y
+    velocity_x = u - r * body_tip_y - tip_x_dot
+    velocity_y = v + r * body_tip_x + tip_y_dot
+    start = velocity_x * sin_fin + velocity_y * cos_fin
+    slope = r - fin_rate
+    end = start + slope * chord
+    # Whether w keeps its sign over the plate; if not, it changes sign at s0 = c w0 / (w0 - w1).
+    same = 1.0 * (start * end >= 0.0)
+    sign = same * np.sign(start + end) + (1.0 - same) * np.sign(start)
+    crossing = same * chord + (1.0 - same) * chord * start / (start - end + same)
+    square_start, product, square_slope = start * start, start * slope, slope * slope
+    # Q(s) = ∫0^s w² and P(s) = ∫0^s s w²: I = sign (2 F(s0) - F(c)) for either.
+    zeroth_crossing = crossing * (
+        square_start + crossing * (product + crossing * square_slope / 3.0)
+    )
+    zeroth_chord = chord * (square_start + chord * (product + chord * square_slope / 3.0))
+    first_crossing = crossing * crossing * (
+        0.5 * square_start + crossing * (2.0 * product / 3.0 + 0.25 * crossing * square_slope)
+    )
+    first_chord = chord * chord * (
+        0.5 * square_start + chord * (2.0 * product / 3.0 + 0.25 * chord * square_slope)
+    )
+    zeroth = sign * (2.0 * zeroth_crossing - zeroth_chord)
+    first = sign * (2.0 * first_crossing - first_chord)
+    normal_force = -drag_factor * zeroth
+    moment_about_tip = -drag_factor * first
+    moment = (body_tip_x * cos_fin - body_tip_y * sin_fin) * normal_force + moment_about_tip
+    return normal_force * sin_fin, normal_force * cos_fin, moment, moment_about_tip
 
 
 def fin_recoil(

@@ -31,7 +31,8 @@ else:
 PARAMETER_COLUMNS = (
     "surge_mass_kg", "sway_mass_kg", "yaw_inertia_kg_m2", "fin_added_mass_per_length_kg_m",
     "fin_chord_m", "tail_origin_offset_m", "drag_factor_kg_m", "lift_factor_kg_m",
-    "yaw_damping_kg_m2",
+    "yaw_damping_kg_m2", "surge_linear_damping_kg_s", "sway_linear_damping_kg_s",
+    "sway_quadratic_damping_kg_m", "yaw_linear_damping_kg_m2_s", "fin_drag_factor_kg_m2",
 )  # fmt: skip
 #: Columns of a tail sample: the TailSample fields, then the TailAcceleration ones.
 TAIL_COLUMNS = 9
@@ -83,6 +84,7 @@ _jit: Compiler = numba.njit(cache=True, nogil=True) if AVAILABLE else _identity
 _tip_force = _jit(formulas.tip_force)
 _hull_force = _jit(formulas.hull_force)
 _fin_recoil = _jit(formulas.fin_recoil)
+_fin_drag = _jit(formulas.fin_drag)
 _coupling = _jit(formulas.coupling)
 _accelerations = _jit(formulas.accelerations)
 _held_surge_acceleration = _jit(formulas.held_surge_acceleration)
@@ -96,15 +98,18 @@ def _rates(p: Any, s: Any, y: Any, hold: bool, out: Any) -> None:
     force_x, force_y, moment, _, _, _, _ = _tip_force(
         p[3], p[5], s[0], s[1], s[2], s[3], s[4], u, v, r
     )
-    hull_x, hull_y, hull_z = _hull_force(p[6], p[7], p[8], u, v, r)
+    hull_x, hull_y, hull_z = _hull_force(p[6], p[7], p[8], p[9], p[10], p[11], p[12], u, v, r)
+    plate_x, plate_y, plate_z, _ = _fin_drag(
+        p[13], p[4], p[5], s[0], s[1], s[2], s[3], s[4], s[5], u, v, r
+    )
     coupling_x, coupling_y, coupling_z = _coupling(p[0], p[1], u, v, r)
     direction_x, direction_y, direction_z, added_mass, rest_x, rest_y, rest_z = _fin_recoil(
         p[3], p[4], p[5], s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], u, v, r
     )
-    # The sums in the numpy model's order; a chord of 0 adds exact zeros.
-    total_x = coupling_x + force_x + hull_x + rest_x
-    total_y = coupling_y + force_y + hull_y + rest_y
-    total_z = coupling_z + moment + hull_z + rest_z
+    # The sums in the numpy model's order; a chord or C_n of 0 adds exact zeros.
+    total_x = coupling_x + force_x + hull_x + plate_x + rest_x
+    total_y = coupling_y + force_y + hull_y + plate_y + rest_y
+    total_z = coupling_z + moment + hull_z + plate_z + rest_z
     if hold:
         out[3] = _held_surge_acceleration(p[0], total_x, added_mass, direction_x)
         out[4] = 0.0

@@ -1,10 +1,10 @@
 """Forces on the fish and its equations of motion in the horizontal plane.
 
 :class:`SwimModel` is the right-hand side a batch of fish is integrated with: Lighthill's
-reactive force at the trailing edge, the hull's drag, lift and yaw damping, and the recoil of a
-fin with chord, on states (X, Y, psi, u, v, r), one row of an (N, 6) array per fish. The
-formulas themselves are :mod:`fishtail_plant.fish.formulas`; this module gives them the fish,
-the tail and the state. Frames, forces and equations: docs/swimming-dynamics.md.
+reactive force at the trailing edge, the hull's drag, lift and damping, and the recoil and the
+resistive drag of a fin with chord, on states (X, Y, psi, u, v, r), one row of an (N, 6) array
+per fish. The formulas themselves are :mod:`fishtail_plant.fish.formulas`; this module gives
+them the fish, the tail and the state. Frames, forces and equations: docs/swimming-dynamics.md.
 
 >>> from fishtail_plant.fish.tail_drive import SinusoidalTailDrive
 >>> drive = SinusoidalTailDrive(0.2, 0.0, 0.3, 6.0)
@@ -68,12 +68,36 @@ def trailing_edge_force(
 def body_force(
     fish: FishParameters, u: FloatArray, v: FloatArray, r: FloatArray
 ) -> GeneralisedForce:
-    """Drag -½ rho S C_D V (u, v), lift ½ rho S C_L beta V (v, -u) while u > 0, -K_D r|r|."""
+    """Drag -½ rho S C_D V (u, v), lift ½ rho S C_L beta V (v, -u) while u > 0, and damping.
+
+    Fossen's damping: -(X_u u, Y_v v + Y_|v|v |v| v, N_r r + K_D r|r|).
+    """
     return GeneralisedForce(
         *formulas.hull_force(
-            fish.drag_factor_kg_m, fish.lift_factor_kg_m, fish.yaw_damping_kg_m2, u, v, r
-        )
+            fish.drag_factor_kg_m, fish.lift_factor_kg_m, fish.yaw_damping_kg_m2,
+            fish.surge_linear_damping_kg_s, fish.sway_linear_damping_kg_s,
+            fish.sway_quadratic_damping_kg_m, fish.yaw_linear_damping_kg_m2_s, u, v, r,
+        )  # fmt: skip
     )
+
+
+class FinDrag(NamedTuple):
+    """The fin plate's resistive force (body x, y), its moment about C and its moment about T."""
+
+    force: GeneralisedForce
+    moment_about_tip: FloatArray
+
+
+def fin_drag(
+    fish: FishParameters, tail: TailSample, u: FloatArray, v: FloatArray, r: FloatArray
+) -> FinDrag:
+    """-½ rho C_n d |w| w n per unit chord, integrated over the plate from T to T + c t."""
+    force_x, force_y, moment, moment_about_tip = formulas.fin_drag(
+        fish.fin_drag_factor_kg_m2, fish.fin_chord_m, fish.tail_origin_offset_m,
+        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, tail.fin_angle, tail.fin_rate,
+        u, v, r,
+    )  # fmt: skip
+    return FinDrag(GeneralisedForce(force_x, force_y, moment), moment_about_tip)
 
 
 class Recoil(NamedTuple):
@@ -121,6 +145,7 @@ class SwimModel:
         self.drive = drive
         self.hold_sway_yaw = hold_sway_yaw
         self.has_recoil = bool(np.any(np.asarray(fish.fin_chord_m) > 0.0))
+        self.has_fin_drag = fish.has_fin_drag
 
     def forces(
         self, time_s: npt.ArrayLike, state: FloatArray
@@ -144,6 +169,9 @@ class SwimModel:
         m1, m2, inertia = fish.surge_mass_kg, fish.sway_mass_kg, fish.yaw_inertia_kg_m2
         coupling = formulas.coupling(m1, m2, u, v, r)
         total = [c + f + b for c, f, b in zip(coupling, flow.force, body, strict=True)]
+        if self.has_fin_drag:
+            plate = fin_drag(fish, tail, u, v, r).force
+            total = [f + extra for f, extra in zip(total, plate, strict=True)]
         if self.has_recoil:
             recoil = fin_recoil(fish, tail, self.drive.acceleration(time_s), u, v, r)
             total = [f + extra for f, extra in zip(total, recoil.rest, strict=True)]
@@ -163,5 +191,3 @@ class SwimModel:
         rates[..., X], rates[..., Y], rates[..., PSI] = formulas.pose_rates(psi, u, v, r)
         rates[..., SURGE], rates[..., SWAY], rates[..., YAW_RATE] = rates_of_velocity
         return rates
-
-
