@@ -16,14 +16,15 @@ Frames and drives: docs/swimming-dynamics.md ("Tail drives").
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_common.parameters import ParameterSpec
 from fishtail_kinematics.engine.mechanisms import Tail
-from fishtail_plant.errors import SwimParameterError
+from fishtail_plant.errors import FishParameterError, SwimParameterError
 from fishtail_plant.fish.fish import FloatArray, PerFish
 
 # Carrier-angle step of the central difference that gives the engine tail's accelerations: the
@@ -210,3 +211,41 @@ class SinusoidalTailDrive:
             length * (cos_angle * acceleration - sin_angle * rate**2),
             acceleration,
         )
+
+
+#: A servo tail (:class:`SinusoidalTailDrive`) as the command lines and measurement files give it.
+SERVO_TAIL_PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec("servo_fin_length_m", 0.2,
+                  "servo tail: fin length l_fin from the pivot O to the trailing edge", "m",
+                  1e-6, 20.0, exclusive_minimum=True),
+    ParameterSpec("servo_amplitude_rad", 0.3,
+                  "servo tail: fin angle amplitude alpha_a (half the peak-to-peak swing)", "rad",
+                  0.0, float(np.pi)),
+    ParameterSpec("servo_bias_rad", 0.0,
+                  "servo tail: mean fin angle alpha0 (> 0 turns the fin to the fish's left)",
+                  "rad", -float(np.pi), float(np.pi)),
+    ParameterSpec("servo_frequency_hz", 1.0, "servo tail: beat frequency f", "Hz", 1e-6, 100.0,
+                  exclusive_minimum=True),
+)  # fmt: skip
+SERVO_TAIL_PARAMETERS_BY_NAME = {spec.name: spec for spec in SERVO_TAIL_PARAMETERS}
+
+
+def servo_drive(values: Mapping[str, PerFish]) -> SinusoidalTailDrive:
+    """The servo tail of :data:`SERVO_TAIL_PARAMETERS` values (floats or per-fish arrays).
+
+    Names not given keep their defaults; f becomes omega = 2 pi f.
+
+    Raises:
+        FishParameterError: an unknown name.
+        SwimParameterError: a value the drive refuses.
+    """
+    unknown = sorted(set(values) - set(SERVO_TAIL_PARAMETERS_BY_NAME))
+    if unknown:
+        raise FishParameterError(f"unknown servo tail parameter {unknown[0]!r}")
+    chosen = {spec.name: values.get(spec.name, spec.default) for spec in SERVO_TAIL_PARAMETERS}
+    return SinusoidalTailDrive(
+        fin_length_m=np.asarray(chosen["servo_fin_length_m"], dtype=float),
+        mean_angle_rad=np.asarray(chosen["servo_bias_rad"], dtype=float),
+        amplitude_rad=np.asarray(chosen["servo_amplitude_rad"], dtype=float),
+        angular_frequency_rad_s=2.0 * np.pi * np.asarray(chosen["servo_frequency_hz"], float),
+    )
