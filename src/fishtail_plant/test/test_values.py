@@ -125,10 +125,11 @@ def test_an_infeasible_geometry_is_refused_with_the_engines_reason():
         tail_load(declared_values(crank_link_m=0.01), "air")
 
 
-def test_a_fin_with_chord_is_refused_in_water_only():
-    with pytest.raises(ValueError, match=r"^motor_load water_held: fin_chord_m = 0.02 m: the fin"):
-        tail_load(declared_values(fin_chord_m=0.02), "water_held")
-    assert tail_load(declared_values(fin_chord_m=0.02), "air").inertia(0.0) > 0.0
+def test_a_fin_with_chord_adds_its_added_mass_in_water_only():
+    chord = declared_values(fin_chord_m=0.02)
+    in_air, in_water = tail_load(chord, "air"), tail_load(chord, "water_held")
+    assert in_water.inertia(0.3) > in_air.inertia(0.3) > 0.0
+    assert tail_load(declared_values(), "water_held").inertia(0.3) == in_air.inertia(0.3)
 
 
 def test_missing_and_refused_files_are_named(tmp_path):

@@ -15,6 +15,7 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 from typing import NamedTuple
 
 import numpy as np
@@ -28,10 +29,12 @@ from fishtail_plant.fish.model import (
     SURGE,
     SWAY,
     YAW_RATE,
+    FinDrag,
     GeneralisedForce,
     SwimModel,
     X,
     Y,
+    fin_drag,
 )
 from fishtail_plant.fish.model import trailing_edge_force as _trailing_edge_force
 from fishtail_plant.fish.tail_drive import TailDrive, TailSample
@@ -40,6 +43,9 @@ from fishtail_plant.fish.tail_drive import TailDrive, TailSample
 _ALIGNMENT_TOLERANCE = 1e-6
 #: Samples per beat of the cycle means (a periodic trapezoid rule: spectrally accurate).
 CYCLE_SAMPLES = 128
+# Bracket doublings and bisections of the steady speed with a fin's drag: 2^-64 of the bracket.
+_BRACKET_DOUBLINGS = 60
+_BISECTIONS = 64
 
 
 class BeatWindow(NamedTuple):
@@ -155,10 +161,27 @@ def tail_power(force: GeneralisedForce, tail: TailSample) -> FloatArray:
     return power
 
 
+def fin_drag_tail_power(plate: FinDrag, tail: TailSample) -> FloatArray:
+    """Rate at which the tail works against the fin plate's drag, as it moves in the body.
+
+    The plate's resultant acts at T, which moves at (-Tx_dot, Ty_dot), and its moment about T
+    on a plate turning at -th_dot in the body frame. Held at rest it is ∫ k |w|³ ds >= 0.
+    """
+    power: FloatArray = (
+        plate.force.x * tail.tip_x_dot
+        - plate.force.y * tail.tip_y_dot
+        + plate.moment_about_tip * tail.fin_rate
+    )
+    return power
+
+
 def tail_figures(
     model: SwimModel, trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int
 ) -> TailFigures:
     """<F_T,x>, P_tail, eta = <F_T,x> Ū / P_tail, A and St = f A / Ū over the last beats.
+
+    With a fin's drag, thrust and power include the plate's (its x force and the tail's work
+    against it); the recoil, whose mean over whole beats is nearly zero, is left out.
 
     Raises:
         BeatAlignmentError: as :func:`beat_window`.
@@ -166,8 +189,13 @@ def tail_figures(
     window = beat_window(trajectory, beat_period_s, beats)
     flow, _, tail = model.forces(trajectory.time_s[:, None], trajectory.state)
     force = flow.force
-    thrust = _window_mean(force.x, trajectory.time_s, window)
-    mean_power = _window_mean(tail_power(force, tail), trajectory.time_s, window)
+    push, power = force.x, tail_power(force, tail)
+    if model.has_fin_drag:
+        u, v, r = (trajectory.state[..., column] for column in (SURGE, SWAY, YAW_RATE))
+        plate = fin_drag(model.fish, tail, u, v, r)
+        push, power = push + plate.force.x, power + fin_drag_tail_power(plate, tail)
+    thrust = _window_mean(push, trajectory.time_s, window)
+    mean_power = _window_mean(power, trajectory.time_s, window)
     speed = beat_means(trajectory, beat_period_s, beats).mean_speed_m_s
     start, end = window.indices[0], window.indices[-1]
     record = np.arange(trajectory.time_s.size)[:, None]
@@ -182,6 +210,25 @@ def tail_figures(
     )
 
 
+def _tail_force_x(
+    fish: FishParameters, tail: TailSample, surge_speed_m_s: npt.ArrayLike
+) -> FloatArray:
+    """The tail's x force on the body held at u = U, v = r = 0: Lighthill's and the plate's."""
+    u = np.asarray(surge_speed_m_s, dtype=float) + np.zeros_like(tail.tip_x)
+    zero = np.zeros_like(u)
+    force: FloatArray = _trailing_edge_force(fish, tail, u, zero, zero).force.x
+    if fish.has_fin_drag:
+        force = force + fin_drag(fish, tail, u, zero, zero).force.x
+    return force
+
+
+def _cycle_samples(
+    drive: TailDrive, beat_period_s: npt.ArrayLike, samples: int
+) -> TailSample:
+    period = np.asarray(beat_period_s, dtype=float)
+    return drive.sample(np.arange(samples)[:, None] / samples * period)
+
+
 def cycle_mean_tail_force(
     drive: TailDrive,
     fish: FishParameters,
@@ -191,16 +238,12 @@ def cycle_mean_tail_force(
 ) -> FloatArray:
     """<F_T,x> over one beat with the body held at u = U, v = r = 0 (one element per fish).
 
-    The recoil of a fin with chord is a time derivative of a periodic quantity when the body is
-    held, so its mean is zero and it is left out.
+    Lighthill's force and the fin plate's drag. The recoil of a fin with chord is a time
+    derivative of a periodic quantity when the body is held, so its mean is zero and it is left
+    out.
     """
-    period = np.asarray(beat_period_s, dtype=float)
-    times = np.arange(samples)[:, None] / samples * period
-    tail = drive.sample(times)
-    u = np.asarray(surge_speed_m_s, dtype=float) + np.zeros_like(tail.tip_x)
-    zero = np.zeros_like(u)
-    force: FloatArray = _trailing_edge_force(fish, tail, u, zero, zero).force.x
-    return np.asarray(force.mean(axis=0), dtype=float)
+    tail = _cycle_samples(drive, beat_period_s, samples)
+    return np.asarray(_tail_force_x(fish, tail, surge_speed_m_s).mean(axis=0), dtype=float)
 
 
 def steady_surge_speed(
@@ -209,24 +252,30 @@ def steady_surge_speed(
     beat_period_s: npt.ArrayLike,
     samples: int = CYCLE_SAMPLES,
 ) -> FloatArray:
-    """The U > 0 with <F_T,x>(U) = ½ rho S C_D U² (sway and yaw held), one per fish.
+    """The U > 0 with <F_T,x>(U) = ½ rho S C_D U² + X_u U (sway and yaw held), one per fish.
 
-    With v = r = 0 the trailing-edge force is a quadratic in U (v_T is affine in U), so its cycle
-    mean a + b U + c U² follows exactly from the means at U = 0, 1, -1 m/s and the balance is a
-    quadratic equation: no iteration.
+    With v = r = 0 Lighthill's force is a quadratic in U (v_T is affine in U), so its cycle
+    mean a + b U + c U² follows exactly from the means at U = 0, 1, -1 m/s and, without a fin's
+    drag, the balance is a quadratic equation: no iteration. The plate's drag |w| w is not a
+    polynomial in U: then the balance is bracketed and bisected, one bracket per fish.
 
     Raises:
         NoSteadySpeedError: a fish whose cycle-mean thrust never balances its drag at U > 0.
     """
-    at_rest, ahead, astern = (
-        cycle_mean_tail_force(drive, fish, speed, beat_period_s, samples)
-        for speed in (0.0, 1.0, -1.0)
+    tail = _cycle_samples(drive, beat_period_s, samples)
+    lighthill = fish if not fish.has_fin_drag else dataclasses.replace(
+        fish, fin_normal_drag_coefficient=0.0
     )
-    linear = 0.5 * (ahead - astern)
+    at_rest, ahead, astern = (
+        _tail_force_x(lighthill, tail, speed).mean(axis=0) for speed in (0.0, 1.0, -1.0)
+    )
+    linear = 0.5 * (ahead - astern) - np.asarray(fish.surge_linear_damping_kg_s)
     quadratic = 0.5 * (ahead + astern) - at_rest - np.asarray(fish.drag_factor_kg_m)
     # a + b U + q U² = 0 with q < 0 (drag wins at speed) and a > 0 (thrust at rest).
     discriminant = linear * linear - 4.0 * quadratic * at_rest
     usable = (quadratic < 0.0) & (at_rest > 0.0) & (discriminant >= 0.0)
+    if fish.has_fin_drag:
+        return _bisected_speed(fish, tail, at_rest, linear, quadratic, usable, discriminant)
     if not usable.all():
         bad = int(np.flatnonzero(~np.broadcast_to(usable, at_rest.shape))[0])
         raise NoSteadySpeedError(
@@ -237,3 +286,83 @@ def steady_surge_speed(
     root = np.sqrt(discriminant)
     # The positive root, written to avoid cancellation: 2a / (-b + sqrt(b² - 4 a q)) with q < 0.
     return np.asarray((2.0 * at_rest) / (root - linear), dtype=float)
+
+
+def _bisected_speed(
+    fish: FishParameters,
+    tail: TailSample,
+    at_rest: FloatArray,
+    linear: FloatArray,
+    quadratic: FloatArray,
+    usable: FloatArray,
+    discriminant: FloatArray,
+) -> FloatArray:
+    """The balance with the plate's drag: bracket [0, U_hi] by doubling, then bisect."""
+    def net(speed: FloatArray) -> FloatArray:
+        # Lighthill's polynomial, the damping, and the plate's drag averaged over the beat.
+        u = speed + np.zeros_like(tail.tip_x)
+        zero = np.zeros_like(u)
+        plate = fin_drag(fish, tail, u, zero, zero).force.x.mean(axis=0)
+        value: FloatArray = at_rest + speed * (linear + quadratic * speed) + plate
+        return value
+
+    rest = net(np.zeros_like(at_rest))
+    if np.any(rest <= 0.0):
+        bad = int(np.flatnonzero(np.ravel(rest) <= 0.0)[0])
+        raise NoSteadySpeedError(
+            f"fish {bad}: cycle-mean thrust {float(np.ravel(rest)[bad]):.6g} N at rest, with the "
+            "fin's drag: no positive balance speed"
+        )
+    # Start from the balance without the plate's drag where it has one.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        without_plate = (2.0 * at_rest) / (np.sqrt(discriminant) - linear)
+    high = np.maximum(np.where(usable, without_plate, 0.1), 1e-3)
+    for _ in range(_BRACKET_DOUBLINGS):
+        ahead = net(high) > 0.0
+        if not ahead.any():
+            break
+        high = np.where(ahead, 2.0 * high, high)
+    else:
+        bad = int(np.flatnonzero(np.ravel(net(high)) > 0.0)[0])
+        raise NoSteadySpeedError(
+            f"fish {bad}: the thrust outgrows the drag at every speed up to "
+            f"{float(np.ravel(high)[bad]):.3g} m/s"
+        )
+    low = np.zeros_like(high)
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (low + high)
+        above = net(middle) > 0.0
+        low, high = np.where(above, middle, low), np.where(above, high, middle)
+    return np.asarray(0.5 * (low + high), dtype=float)
+
+
+class HeldFish(NamedTuple):
+    """A fish held still (a bollard test), over one beat: one element per fish."""
+
+    thrust_n: FloatArray  # <F_x> of the tail on the body
+    tail_power_w: FloatArray  # the tail's mean power into the water
+    fin_drag_power_w: FloatArray  # of which against the fin plate's drag (dissipated)
+
+
+def held_fish(
+    drive: TailDrive,
+    fish: FishParameters,
+    beat_period_s: npt.ArrayLike,
+    samples: int = CYCLE_SAMPLES,
+) -> HeldFish:
+    """Thrust and tail power of the fish held at rest, u = v = r = 0, over one beat.
+
+    The recoil's mean force and power vanish over a beat (derivatives of periodic quantities).
+    """
+    tail = _cycle_samples(drive, beat_period_s, samples)
+    zero = np.zeros_like(tail.tip_x)
+    flow = _trailing_edge_force(fish, tail, zero, zero, zero)
+    plate = fin_drag(fish, tail, zero, zero, zero)
+    thrust = (flow.force.x + plate.force.x).mean(axis=0)
+    dissipation = fin_drag_tail_power(plate, tail).mean(axis=0)
+    power = tail_power(flow.force, tail).mean(axis=0) + dissipation
+    return HeldFish(
+        np.asarray(thrust, dtype=float),
+        np.asarray(power, dtype=float),
+        np.asarray(dissipation, dtype=float),
+    )

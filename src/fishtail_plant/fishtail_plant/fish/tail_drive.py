@@ -132,7 +132,13 @@ class EngineTailDrive:
         q' is the engine's exact rate at unit carrier speed, q'' its central difference in phi.
         """
         angle, speed, carrier_acceleration = self.carrier(time_s)
-        unit = np.ones_like(angle)
+        return self.acceleration_at(angle, speed, carrier_acceleration)
+
+    def acceleration_at(
+        self, angle: FloatArray, speed: FloatArray, carrier_acceleration: FloatArray
+    ) -> TailAcceleration:
+        """:meth:`acceleration` at carrier angles, speeds and accelerations (broadcast)."""
+        unit = np.ones_like(np.asarray(angle, dtype=float))
         ahead = self._pose_and_rates(angle + _ANGLE_STEP_RAD, unit)
         behind = self._pose_and_rates(angle - _ANGLE_STEP_RAD, unit)
         here = self._pose_and_rates(angle, unit)

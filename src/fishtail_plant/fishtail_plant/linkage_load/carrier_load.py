@@ -51,7 +51,12 @@ class CarrierLoad(NamedTuple):
     reduced_inertia_kg_m2: FloatArray  # J(phi)
 
 
-def _finite(name: str, value: npt.ArrayLike) -> FloatArray:
+def finite_values(name: str, value: npt.ArrayLike) -> FloatArray:
+    """``value`` as a float array.
+
+    Raises:
+        InvalidInputError: a non-finite value (naming ``name`` and the first bad index).
+    """
     array = np.asarray(value, dtype=float)
     if not np.isfinite(array).all():
         bad = np.flatnonzero(~np.isfinite(array.ravel()))
@@ -112,7 +117,7 @@ class CarrierLoadModel:
         Raises:
             InvalidInputError: a non-finite angle (naming the first bad index).
         """
-        angle = _finite("carrier angle", motor_angle)
+        angle = finite_values("carrier angle", motor_angle)
         columns = np.empty((5, angle.size))
         for block, values in self._blocks(angle.ravel()):
             columns[0, block] = values.inertia
@@ -129,7 +134,7 @@ class CarrierLoadModel:
         Raises:
             InvalidInputError: a non-finite angle or speed.
         """
-        speed = _finite("carrier speed", motor_velocity)
+        speed = finite_values("carrier speed", motor_velocity)
         energy: FloatArray = 0.5 * self.reduced_inertia(motor_angle).inertia_kg_m2 * speed**2
         return energy
 
@@ -152,14 +157,14 @@ class CarrierLoadModel:
         Raises:
             InvalidInputError: a non-finite argument (naming it and the first bad index).
         """
-        angle = _finite("carrier angle", motor_angle)
+        angle = finite_values("carrier angle", motor_angle)
         inputs = _Inputs(
-            _finite("carrier speed", motor_velocity),
-            _finite("carrier acceleration", motor_acceleration),
+            finite_values("carrier speed", motor_velocity),
+            finite_values("carrier acceleration", motor_acceleration),
             (
-                _finite("tip force x", tip_force_x),
-                _finite("tip force y", tip_force_y),
-                _finite("fin moment", fin_moment),
+                finite_values("tip force x", tip_force_x),
+                finite_values("tip force y", tip_force_y),
+                finite_values("fin moment", fin_moment),
             ),
         )
         shape = np.broadcast_shapes(angle.shape, *(value.shape for value in inputs.arrays()))

@@ -28,7 +28,7 @@ from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_spe
 from fishtail_plant.linkage_load.carrier_load import CarrierLoad, CarrierLoadModel
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
 from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
-from fishtail_plant.linkage_load.water import carrier_load_in_water
+from fishtail_plant.linkage_load.water import carrier_load_in_water, fin_added_inertia
 
 
 def swimming_speed_per_carrier_speed(tail: Tail, fish: FishParameters) -> float:
@@ -51,7 +51,7 @@ class TailLoad:
         """Load of ``tail`` with links ``inertia`` on ``fish``, in ``surroundings``.
 
         Raises:
-            SwimInputError: unknown ``surroundings``, or a fin with chord in water.
+            SwimInputError: unknown ``surroundings``.
             NoSteadySpeedError: ``water_swimming`` with a fish that has no steady speed.
         """
         if surroundings not in SURROUNDINGS:
@@ -74,6 +74,9 @@ class TailLoad:
             exact = self.exact(angles, 1.0)
             per_speed_squared = np.asarray(exact.torque_n_m, dtype=float)
             reduced = np.asarray(exact.reduced_inertia_kg_m2, dtype=float)
+            if surroundings.startswith("water"):
+                # The fin plate's added mass moves with the tail: inertia, not load.
+                reduced = reduced + fin_added_inertia(tail, fish, angles)
         # Plain lists: indexing them from Python is several times cheaper than numpy scalars.
         self._torque_table = _periodic_padding(per_speed_squared)
         self._inertia_table = _periodic_padding(reduced)

@@ -55,6 +55,12 @@ def test_compiled_loop_matches_the_numpy_model(
         drag_coefficient=np.array([0.2, 0.3, 0.6]),
         yaw_damping_kg_m2=np.array([0.5, 1.0, 2.0]),
         fin_chord_m=chord_m,
+        # Fossen's linear terms and the plate's drag, per fish, so every column is read.
+        surge_linear_damping_kg_s=np.array([0.0, 1.0, 2.0]),
+        sway_linear_damping_kg_s=np.array([0.5, 0.0, 1.0]),
+        sway_quadratic_damping_kg_m=np.array([0.0, 3.0, 1.0]),
+        yaw_linear_damping_kg_m2_s=np.array([0.02, 0.0, 0.05]),
+        fin_normal_drag_coefficient=np.array([1.2, 0.0, 2.0]),
     )
     model = SwimModel(fish, drive, hold_sway_yaw=hold_sway_yaw)
     compiled = simulate(model, 3, STEP_S, STEPS).state[-1]

@@ -11,14 +11,18 @@ import pytest
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail, UndulatoryTail
 from fishtail_plant.errors import SwimInputError
-from fishtail_plant.fish.figures import steady_surge_speed, tail_power
+from fishtail_plant.fish.figures import held_fish, steady_surge_speed, tail_power
 from fishtail_plant.fish.fish import FishParameters
 from fishtail_plant.fish.model import trailing_edge_force
 from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_plant.linkage_load import water as water_module
 from fishtail_plant.linkage_load.carrier_load import CarrierLoadModel
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
-from fishtail_plant.linkage_load.water import carrier_load_in_water, water_force_on_tail
+from fishtail_plant.linkage_load.water import (
+    carrier_load_in_water,
+    fin_added_inertia,
+    water_force_on_tail,
+)
 
 TAILS = [OscillatoryTail(OscillatoryGeometry()), UndulatoryTail(UndulatoryGeometry())]
 IDS = ["oscillatory", "undulatory"]
@@ -121,9 +125,43 @@ def test_vectorised_over_angles_and_fish(tail):
     )
 
 
-def test_a_fin_with_chord_is_refused():
-    with pytest.raises(SwimInputError, match=r"fin_chord_m = 0.02 m \(fish 1\)"):
-        water_force_on_tail(TAILS[0], FishParameters(fin_chord_m=np.array([0.0, 0.02])), 0.0, 4.0)
+PLATE = FishParameters(fin_chord_m=0.06, fin_normal_drag_coefficient=1.2)
+
+
+def test_held_at_rest_the_carrier_pays_the_plates_dissipation(tail):
+    """By virtual work through the linkage, the carrier's mean power is the tail's power held.
+
+    held_fish computes it from the plate's force and the tail's motion in the body; the carrier's
+    load from the linkage's ratios: two routes to one figure. The recoil averages out.
+    """
+    speed = 4.0
+    model = CarrierLoadModel(tail, LinkInertia.massless())
+    load = carrier_load_in_water(model, PLATE, REVOLUTION, speed)
+    drive = EngineTailDrive(tail, constant_carrier_speed(speed))
+    held = held_fish(drive, PLATE, 2.0 * math.pi / speed, samples=REVOLUTION.size)
+    assert held.fin_drag_power_w[0] > 0.0
+    np.testing.assert_allclose(load.power_w.mean(), held.tail_power_w[0], rtol=1e-9)
+    assert np.abs(load.power_w).max() > 2 * held.tail_power_w[0]  # the recoil swings about it
+
+
+def test_a_chord_adds_the_fins_added_mass_to_the_carriers_inertia(tail):
+    """The recoil's part in phi_ddot is the added inertia m c (n . dM/dphi)², nothing else."""
+    model = CarrierLoadModel(tail, LinkInertia.massless())
+    angles = REVOLUTION[::16]
+    steady = carrier_load_in_water(model, PLATE, angles, 5.0, 0.0, 0.1)
+    speeding = carrier_load_in_water(model, PLATE, angles, 5.0, 30.0, 0.1)
+    added = fin_added_inertia(tail, PLATE, angles)
+    assert added.max() > 0.0
+    np.testing.assert_allclose(speeding.torque_n_m - steady.torque_n_m, added * 30.0, rtol=1e-6,
+                               atol=1e-9 * added.max())  # fmt: skip
+
+
+def test_without_a_plate_the_load_is_lighthills_alone(tail):
+    model = CarrierLoadModel(tail, LinkInertia.massless())
+    lighthill = carrier_load_in_water(model, FISH, REVOLUTION, 6.0, 0.0, 0.2)
+    no_coefficient = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=2.0)
+    same = carrier_load_in_water(model, no_coefficient, REVOLUTION, 6.0, 0.0, 0.2)
+    np.testing.assert_array_equal(same.torque_n_m, lighthill.torque_n_m)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf])
