@@ -352,3 +352,25 @@ def test_a_run_that_does_not_settle_gives_no_verdict():
         size_motor(DcMotorParameters(), load, limits=RunLimits(max_revolutions=3))
     with pytest.raises(UnsettledRunError, match="would need about 1.0[0-9]e\\+03 steps"):
         size_motor(DcMotorParameters(), load, limits=RunLimits(max_steps=500))
+
+
+def test_held_in_water_a_fin_plate_asks_the_oscillating_tail_for_power():
+    """Mechanism 1 held still: no power without the plate's drag, its dissipation with it."""
+    tail = make_tail(OscillatoryGeometry())
+    plate = FishParameters(fin_chord_m=0.06, fin_normal_drag_coefficient=1.2)
+    held = {}
+    for name, fish in (("bare", FishParameters()), ("plate", plate)):
+        load = TailLoad(tail, LinkInertia(), fish, "water_held")
+        held[name] = size_motor(DcMotorParameters(), load, (1.0, 2.0))
+    bare, with_plate = held["bare"].held, held["plate"].held
+    assert np.all(np.abs(bare.tail_power_w) < 1e-12)
+    assert np.all(with_plate.tail_power_w > 0.0)
+    np.testing.assert_allclose(with_plate.tail_power_w, with_plate.fin_drag_power_w, rtol=1e-9)
+    # Quadratic drag of velocities proportional to f: the power goes as f³.
+    ratio = with_plate.tail_power_w[1] / with_plate.tail_power_w[0]
+    assert ratio == pytest.approx(8.0, rel=1e-9)
+    # The motor pays for it: more current, a lower sustained beat.
+    assert held["plate"].run.rms_current_a > 2.0 * held["bare"].run.rms_current_a
+    assert held["plate"].run.mean_speed_rad_s < held["bare"].run.mean_speed_rad_s
+    in_air = size_motor(DcMotorParameters(), TailLoad(tail, LinkInertia(), plate, "air"), (1.0,))
+    assert in_air.held is None

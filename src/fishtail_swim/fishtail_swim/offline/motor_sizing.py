@@ -33,6 +33,7 @@ from fishtail_swim.offline.full_duty_run import (
     RunLimits,
     run_at_full_duty,
 )
+from fishtail_swim.offline.held_fish_table import HeldFishRows, held_linkage_rows
 from fishtail_swim.offline.motor_load_table import SAMPLES_PER_REVOLUTION
 
 #: Beat frequencies [Hz] of the table when none are given (one beat per carrier revolution).
@@ -184,6 +185,9 @@ class MotorSizing(NamedTuple):
     #: max |τ_L(φ, 0)| [N m]: what the motor must overcome to start (0 for the tail's load).
     load_at_rest_n_m: float
     verdict: str
+    #: The fish held still at the rows' beat frequencies (the tail's power then is the fin's drag
+    #: for mechanism 1), or None for a load without water.
+    held: HeldFishRows | None = None
 
 
 def size_motor(
@@ -216,9 +220,12 @@ def size_motor(
     angles = np.arange(samples.inertia_kg_m2.size) * (2.0 * math.pi / samples.inertia_kg_m2.size)
     at_rest = max(abs(load.torque(float(angle), 0.0)) for angle in angles)
     slowest = float(np.min(rows.beat_frequency_hz))
+    held = None
+    if load.surroundings.startswith("water"):
+        held = held_linkage_rows(load.model.tail, load.fish, rows.carrier_speed_rad_s)
     return MotorSizing(
         parameters, samples, rows, quasi_static, run, at_rest,
-        verdict(parameters, run, slowest, at_rest),
+        verdict(parameters, run, slowest, at_rest), held,
     )  # fmt: skip
 
 

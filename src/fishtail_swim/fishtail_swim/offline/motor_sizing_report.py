@@ -13,6 +13,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from fishtail_swim.offline.full_duty_run import FullDutyRun
+from fishtail_swim.offline.held_fish_table import held_fish_columns
 from fishtail_swim.offline.motor_sizing import MotorSizing, QuasiStaticRows, torque_at_carrier_n_m
 from fishtail_swim.offline.tables import Column, write_table
 
@@ -96,6 +97,12 @@ def write_sizing_report(sizing: MotorSizing, tail_text: str, out: TextIO) -> Non
         f"  time-stepped (the DC motor model, loaded):  {_run_text(sizing.run)}\n\n"
         f"{sizing.verdict}\n"
     )
+    if sizing.held is not None:
+        out.write(
+            "\nthe fish held still (a bollard test), at the table's beat frequencies; the tail's "
+            "power into the water, of which the fin plate's drag:\n"
+        )
+        write_table(held_fish_columns(sizing.held), out, as_csv=False)
 
 
 def _pyplot() -> Any:
