@@ -19,13 +19,9 @@ from fishtail_plant.fish.figures import beat_means, steady_surge_speed
 from fishtail_plant.fish.fish import FISH_PARAMETERS, FishParameters
 from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_plant.values import load_fish_parameters, read_fish_values
-from fishtail_swim.offline.fit import (
-    fish_file_text,
-    fit_drag,
-    parse_measurements,
-    read_measurements,
-)
+from fishtail_swim.offline.fit import fish_file_text, fit_drag
 from fishtail_swim.offline.fit_free_body import RunSettings, fit_drag_and_yaw_damping
+from fishtail_swim.offline.fit_measurements import parse_measurements, read_measurements
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.time_run import run_from_rest
 
@@ -235,7 +231,8 @@ BAD = {
     "unknown_column": "carrier_speed_rad_s,speed_m_s,yaw_rate\n4,0.2,0\n",
     "twice": "carrier_speed_rad_s,speed_m_s,speed_m_s\n4,0.2,0.2\n",
     "not_a_number": "carrier_speed_rad_s,speed_m_s\n4,fast\n",
-    "empty_field": "carrier_speed_rad_s,speed_m_s,yaw_rate_rad_s\n4,0.2,\n8,0.4,0\n",
+    # An empty turn cell is a turn not measured; an empty speed is refused.
+    "empty_field": "carrier_speed_rad_s,speed_m_s,yaw_rate_rad_s\n4,,-0.002\n8,0.4,\n",
     "nan": "carrier_speed_rad_s,speed_m_s\n4,nan\n",
     "infinite": "carrier_speed_rad_s,speed_m_s\ninf,0.2\n",
     "zero_speed": "carrier_speed_rad_s,speed_m_s\n4,0\n",
@@ -260,7 +257,7 @@ BAD = {
         ("unknown_column", "unknown column 'yaw_rate'"),
         ("twice", "column speed_m_s appears twice"),
         ("not_a_number", "line 2: speed_m_s is not a number: 'fast'"),
-        ("empty_field", "line 2: yaw_rate_rad_s is not a number: ''"),
+        ("empty_field", "line 2: missing speed_m_s (only yaw_rate_rad_s, turning_radius_m may"),
         ("nan", "line 2: speed_m_s is not a finite number"),
         ("infinite", "carrier_speed_rad_s is not a finite number"),
         ("zero_speed", "line 2: speed_m_s must be > 0"),

@@ -32,22 +32,7 @@ from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_swim.offline import animate, recorded_run, run_output
-from fishtail_swim.offline.fit import (
-    MAX_DRAG_RELATIVE_ERROR,
-    MAX_RELATIVE_RESIDUAL,
-    FitContradictedError,
-    check_model_agrees,
-    fish_file_text,
-    fit_drag,
-    read_measurements,
-    write_fit_report,
-)
-from fishtail_swim.offline.fit_free_body import (
-    FREE_BODY_BEATS,
-    FREE_BODY_STEPS_PER_BEAT,
-    RunSettings,
-    fit_drag_and_yaw_damping,
-)
+from fishtail_swim.offline.fit_command import add_fit_parser, run_fit
 from fishtail_swim.offline.full_duty_run import DEFAULT_RUN_LIMITS
 from fishtail_swim.offline.inputs import (
     PROGRAM,
@@ -66,7 +51,7 @@ from fishtail_swim.offline.options import CARRIER_SPEED, MAX_STEPS, MAX_VALUES, 
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
 from fishtail_swim.offline.tables import Column, write_table
-from fishtail_swim.offline.time_run import SUMMARY_BEATS, run_figures, run_from_rest
+from fishtail_swim.offline.time_run import run_figures, run_from_rest
 from fishtail_swim.offline.turning import add_turning_parser, run_turning
 from fishtail_swim.offline.urdf_command import add_urdf_parser, run_urdf
 
@@ -99,10 +84,6 @@ GAP = ParameterSpec(
     "gap", recorded_run.DEFAULT_GAP_S, "fish/odom samples further apart than this are a gap: the "
     "fish is not drawn there and its path is broken", "s", 0.0, exclusive_minimum=True,
 )  # fmt: skip
-#: Free-body runs of fit (with yaw rates): long enough for the figures' last beats.
-BEATS = ParameterSpec(
-    "beats", FREE_BODY_BEATS, "beats of each run from rest", "", SUMMARY_BEATS + 1, 100_000
-)
 
 
 def _speed_list(text: str) -> FloatArray:
@@ -168,40 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
     recorded.add_argument(
         "--namespace", help="namespace the suite was recorded under (when the bag holds several)"
     )
-    _add_fit_parser(commands, swimmer)
+    add_fit_parser(commands, swimmer)
     _add_motor_parser(commands, swimmer)
     add_turning_parser(commands, swimmer)
     add_urdf_parser(commands, swimmer)
     return parser
-
-
-def _add_fit_parser(
-    commands: argparse._SubParsersAction[OneLineErrorParser], swimmer: OneLineErrorParser
-) -> None:
-    fit = commands.add_parser(
-        "fit", parents=[swimmer],
-        help="fit C_D (and K_D, with yaw rates) to measured cruising speeds; write a fish file",
-    )  # fmt: skip
-    fit.add_argument(
-        "measurements", type=Path, metavar="MEASUREMENTS.csv",
-        help="CSV with a header: carrier_speed_rad_s,speed_m_s[,yaw_rate_rad_s] (# comments)",
-    )  # fmt: skip
-    fit.add_argument(
-        "--output", type=Path, metavar="FILE",
-        help="write the fitted fish as a parameter file (for --fish and the simulator node)",
-    )  # fmt: skip
-    fit.add_argument("--csv", action="store_true", help="CSV instead of an aligned table")
-    fit.add_argument(
-        "--force", action="store_true",
-        help="report and write a fit the model contradicts (refused without it: an RMS speed "
-        f"residual over {100 * MAX_RELATIVE_RESIDUAL:g} %% or a C_D standard error over "
-        f"{100 * MAX_DRAG_RELATIVE_ERROR:g} %% of C_D; the model's speed is proportional to the "
-        "carrier speed, so the speeds must rise with it), with a warning",
-    )  # fmt: skip
-    free = fit.add_argument_group("free-body runs (only with yaw rates)")
-    add_parameter_options(
-        free, [BEATS, dataclasses.replace(STEPS_PER_BEAT, default=FREE_BODY_STEPS_PER_BEAT)]
-    )
 
 
 def _add_motor_parser(
@@ -435,46 +387,6 @@ def _animate_recording(arguments: argparse.Namespace, out: TextIO) -> None:
         f"{run.carrier_source}; pivot: {run.pivot_source}; {run.goals.shape[0]} goals)",
         file=out,
     )
-
-
-def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
-    """Fit C_D (and K_D with yaw rates), print the rows and values, write the fish file.
-
-    Raises:
-        MeasurementError: an unusable measurements file.
-        FitRefusedError: no parameters in range reproduce the measurements, or (without
-            --force) the model contradicts them (:func:`~.fit.check_model_agrees`).
-        UsageError: an output that cannot be written; and the errors of
-            :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
-    """
-    measurements = read_measurements(arguments.measurements)
-    swimmer = swimmer_from_arguments(arguments)
-    output: Path | None = arguments.output
-    if output is not None and not output.parent.is_dir():
-        raise UsageError(f"cannot write {output}: no directory {output.parent}")
-    if measurements.yaw_rate_rad_s is None:
-        result = fit_drag(swimmer, measurements)
-    else:
-        settings = RunSettings(arguments.beats, arguments.steps_per_beat)
-        result = fit_drag_and_yaw_damping(swimmer, measurements, settings)
-    warnings = list(result.warnings)
-    try:
-        check_model_agrees(result, measurements)
-    except FitContradictedError as error:
-        if not arguments.force:
-            raise
-        warnings.append(f"{error.reason} (reported and written: --force)")
-    write_fit_report(result, measurements, out, arguments.csv)
-    # CSV output stays parseable: the notes go to stderr.
-    notes = sys.stderr if arguments.csv else out
-    for warning in warnings:
-        print(f"{PROGRAM}: warning: {warning}", file=sys.stderr)
-    if output is not None:
-        try:
-            output.write_text(fish_file_text(result, str(arguments.measurements)), "utf-8")
-        except OSError as error:
-            raise UsageError(f"cannot write {output}: {error.strerror or error}") from None
-        print(f"wrote {output}", file=notes)
 
 
 def run_motor(arguments: argparse.Namespace, out: TextIO) -> None:

@@ -26,11 +26,11 @@ from fishtail_swim.offline.fit import (
     FitRefusedError,
     FitResult,
     FittedValue,
-    Measurements,
     balance_drag_coefficient,
     best_speed_ratio,
     drag_range,
 )
+from fishtail_swim.offline.fit_measurements import Measurements
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.time_run import SUMMARY_BEATS, run_from_rest
@@ -203,7 +203,7 @@ def fit_drag_and_yaw_damping(
     if measurements.yaw_rate_rad_s is None:
         raise ValueError("fit_drag_and_yaw_damping needs yaw rates")
     settings = settings or RunSettings()
-    carriers = measurements.carrier_speed_rad_s
+    carriers = measurements.carrier_speeds()
     speed_ratio, speed_error = best_speed_ratio(measurements)
     yaw_per_carrier = measurements.yaw_rate_rad_s / carriers
     yaw_ratio = float(yaw_per_carrier.mean())
