@@ -49,13 +49,24 @@ from fishtail_swim.offline.motor_sizing import size_motor
 from fishtail_swim.offline.motor_sizing_report import plot_torque_speed, write_sizing_report
 from fishtail_swim.offline.options import CARRIER_SPEED, MAX_STEPS, MAX_VALUES, STEPS_PER_BEAT
 from fishtail_swim.offline.progress import Progress
-from fishtail_swim.offline.steady_table import check_rows, checked_indices, steady_rows
-from fishtail_swim.offline.tables import Column, write_table
-from fishtail_swim.offline.time_run import run_figures, run_from_rest
+from fishtail_swim.offline.steady_table import (
+    balance_columns,
+    balance_rows,
+    check_columns,
+    check_rows,
+    checked_indices,
+)
+from fishtail_swim.offline.tables import write_table
+from fishtail_swim.offline.tail_beats import CardanBeats, TailBeats
+from fishtail_swim.offline.tail_options import DEFAULT_SPEEDS, add_tail_options, tail_choice
+from fishtail_swim.offline.time_run import (
+    run_beats_from_rest,
+    run_figures,
+    run_from_rest,
+)
 from fishtail_swim.offline.turning import add_turning_parser, run_turning
 from fishtail_swim.offline.urdf_command import add_urdf_parser, run_urdf
 
-DEFAULT_SPEEDS = "2,4,8,12,16"
 #: How many carrier speeds --speed-range spreads from the first to the last.
 SPEED_COUNT = ParameterSpec("count", 5, "carrier speeds", "", 1, MAX_VALUES)
 #: The time of a run from rest.
@@ -101,7 +112,8 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
     steady = commands.add_parser(
         "steady", parents=[swimmer],
-        help="cycle-average steady speed, thrust, power, efficiency and St over carrier speeds",
+        help="cycle-average steady speed, thrust, power, efficiency and St over carrier speeds "
+        "(a servo tail: over beat frequencies and amplitudes)",
     )  # fmt: skip
     speeds = steady.add_mutually_exclusive_group()
     speeds.add_argument(
@@ -118,12 +130,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="also step the free body (sway and yaw free) from rest at the first, middle and last "
         "speed, and print its figures beside the balance's",
     )  # fmt: skip
+    add_tail_options(steady, sweep=True)
     simulate = commands.add_parser(
         "simulate", parents=[swimmer], help="a time-stepped run from rest to CSV (and figures)"
     )
     add_parameter_options(simulate, [CARRIER_SPEED, DURATION, STEPS_PER_BEAT])
     simulate.add_argument("--output", type=Path, required=True, help="CSV file to write")
     simulate.add_argument("--figures", type=Path, metavar="DIR", help="write PNG figures here")
+    add_tail_options(simulate, sweep=False)
+    # None when not given, so that the servo tail can refuse it; the Cardan tail's default stays.
+    simulate.set_defaults(speed=None)
     animation = commands.add_parser(
         "animate", parents=[swimmer],
         help="a time-stepped run from rest, or a recorded run (--bag), as a GIF: top view of the "
@@ -176,30 +192,17 @@ def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
 
     Raises:
         UsageError, ParameterValueError, FishtailKinematicsError: bad input
-            (:func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`).
+            (:func:`~fishtail_swim.offline.tail_options.tail_choice`).
         NoSteadySpeedError: a fish whose thrust never balances its drag.
     """
-    swimmer = swimmer_from_arguments(arguments)
-    speeds = arguments.speeds if arguments.speeds is not None else _speed_list(DEFAULT_SPEEDS)
-    rows = steady_rows(swimmer, speeds)
-    write_table(
-        [
-            Column("carrier [rad/s]", rows.carrier_speed_rad_s, ".4g", "carrier_speed_rad_s"),
-            Column("f [Hz]", rows.beat_frequency_hz, ".4f", "beat_frequency_hz"),
-            Column("U [m/s]", rows.speed_m_s, ".4f", "speed_m_s"),
-            Column("U [L/s]", rows.body_lengths_per_s, ".3f", "body_lengths_per_s"),
-            Column("St", rows.strouhal_number, ".3f", "strouhal_number"),
-            Column("thrust [N]", rows.mean_thrust_n, ".4g", "mean_thrust_n"),
-            Column("power [W]", rows.tail_power_w, ".4g", "tail_power_w"),
-            Column("efficiency", rows.froude_efficiency, ".3f", "froude_efficiency"),
-        ],
-        out,
-        arguments.csv,
-    )
+    tail = tail_choice(arguments)
+    beats = tail.sweep(arguments)
+    rows = balance_rows(tail.fish, beats)
+    write_table(balance_columns(beats, rows), out, arguments.csv)
     if not arguments.check:
         return
-    checked = check_rows(swimmer, rows, checked_indices(rows.speed_m_s.size))
-    change = checked.speed_m_s / checked.balance_speed_m_s - 1.0
+    indices = checked_indices(rows.speed_m_s.size)
+    checked = check_rows(tail.fish, beats, rows, indices)
     if not arguments.csv:
         out.write(
             "\nfree body (sway and yaw free), stepped from rest: figures over the last 2 of "
@@ -207,35 +210,23 @@ def run_steady(arguments: argparse.Namespace, out: TextIO) -> None:
         )
     else:
         out.write("\n")
-    write_table(
-        [
-            Column("carrier [rad/s]", checked.carrier_speed_rad_s, ".4g", "carrier_speed_rad_s"),
-            Column("U held [m/s]", checked.balance_speed_m_s, ".4f", "held_speed_m_s"),
-            Column("U free [m/s]", checked.speed_m_s, ".4f", "free_speed_m_s"),
-            Column("change [%]", 100.0 * change, "+.2f", "change_percent"),
-            Column("St free", checked.strouhal_number, ".3f", "free_strouhal_number"),
-            Column("efficiency free", checked.froude_efficiency, ".3f", "free_froude_efficiency"),
-            Column("<v> [m/s]", checked.mean_sway_m_s, ".2e", "mean_sway_m_s"),
-            Column("turning radius [m]", checked.turning_radius_m, ".4g", "turning_radius_m"),
-        ],
-        out,
-        arguments.csv,
-    )
+    write_table(check_columns(beats.subset(indices), checked), out, arguments.csv)
 
 
-def _run_steps(arguments: argparse.Namespace) -> tuple[float, int]:
+def _run_steps(arguments: argparse.Namespace, beats: TailBeats) -> tuple[float, int]:
     """The step and the step count of a run of --duration, checked before anything is allocated.
 
     Raises:
         UsageError: a run shorter than one beat or longer than MAX_STEPS steps.
     """
-    period = 2.0 * math.pi / arguments.speed
+    period = float(beats.beat_period_s[0])
+    rate = beats.rate_text(0)
     step = period / arguments.steps_per_beat
     exact = arguments.duration / step - 1e-9
     if not exact <= MAX_STEPS:  # also an overflow to inf
         longest = MAX_STEPS * step
         raise UsageError(
-            f"--duration {arguments.duration:g} s at --speed {arguments.speed:g} rad/s and "
+            f"--duration {arguments.duration:g} s at {beats.rate_flag} {rate} and "
             f"--steps-per-beat {arguments.steps_per_beat} is {exact:.3g} RK4 steps, over the "
             f"limit of {MAX_STEPS} a run: take --duration at most "
             f"{longest:.6g} s, or fewer steps per beat"
@@ -244,7 +235,7 @@ def _run_steps(arguments: argparse.Namespace) -> tuple[float, int]:
     if steps * step < period * (1.0 - 1e-9):
         raise UsageError(
             f"--duration {arguments.duration:g} s is shorter than one beat ({period:.6g} s at "
-            f"{arguments.speed:g} rad/s)"
+            f"{rate})"
         )
     return step, steps
 
@@ -254,11 +245,12 @@ def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
 
     Raises:
         UsageError: a run shorter than one beat, or output that cannot be written; and the
-            errors of :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
+            errors of :func:`~fishtail_swim.offline.tail_options.tail_choice`.
         SwimInputError: a run that diverges.
     """
-    swimmer = swimmer_from_arguments(arguments)
-    step, steps = _run_steps(arguments)
+    tail = tail_choice(arguments)
+    beats = tail.run(arguments)
+    step, steps = _run_steps(arguments, beats)
     directory: Path | None = arguments.figures
     if directory is not None:
         try:
@@ -268,14 +260,14 @@ def run_simulate(arguments: argparse.Namespace, out: TextIO) -> None:
     if not arguments.output.parent.is_dir():
         raise UsageError(f"cannot write {arguments.output}: no directory {arguments.output.parent}")
     progress = Progress("simulate", steps)
-    run = run_from_rest(swimmer, np.array([arguments.speed]), step, steps, progress)
+    run = run_beats_from_rest(tail.fish, beats, step, steps, progress)
     figures = run_figures(run)
     try:
         run_output.write_run_csv(run, arguments.output)
         written = [] if directory is None else run_output.write_figures(run, figures, directory)
     except OSError as error:
         raise UsageError(f"cannot write: {error.strerror or error}") from None
-    run_output.print_summary(run, figures, swimmer.fish, out)
+    run_output.print_summary(run, figures, tail.fish, out)
     for path in [arguments.output, *written]:
         print(f"wrote {path}", file=out)
 
@@ -320,7 +312,7 @@ def run_animate(arguments: argparse.Namespace, out: TextIO) -> None:
             f"{count:.6g}, but a GIF takes 2 to {animate.MAX_FRAMES} frames (change the duration "
             "or the fps)"
         )
-    step, steps = _run_steps(arguments)
+    step, steps = _run_steps(arguments, CardanBeats(swimmer.tail, np.array([arguments.speed])))
     times = animate.frame_times(arguments.duration, arguments.fps)
     _check_gif_output(arguments.output)
     speed = float(arguments.speed)

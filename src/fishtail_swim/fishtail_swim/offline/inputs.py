@@ -165,6 +165,16 @@ def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
         if getattr(arguments, spec.name) is not None:
             geometry_values[spec.name] = getattr(arguments, spec.name)
     tail = make_tail(geometry_from_parameters(geometry_values))
+    return Swimmer(fish_from_arguments(arguments), tail)
+
+
+def fish_from_arguments(arguments: argparse.Namespace) -> FishParameters:
+    """The fish of ``--fish`` (default config/fish.yaml) and the fish flags, checked.
+
+    Raises:
+        UsageError: a parameter file that does not exist.
+        ParameterValueError: an unreadable file, or a fish value out of range.
+    """
     if arguments.fish is not None:
         fish_file = _existing(arguments.fish, "--fish")
     else:
@@ -173,4 +183,4 @@ def swimmer_from_arguments(arguments: argparse.Namespace) -> Swimmer:
     for spec in FISH_PARAMETERS:
         if getattr(arguments, spec.name) is not None:
             fish_values[spec.name] = getattr(arguments, spec.name)
-    return Swimmer(FishParameters.from_values(fish_values), tail)
+    return FishParameters.from_values(fish_values)

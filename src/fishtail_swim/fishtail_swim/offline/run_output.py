@@ -14,11 +14,13 @@ from fishtail_plant.fish.model import PSI, SURGE, SWAY, YAW_RATE, X, Y
 from fishtail_swim.offline import swim_figures
 from fishtail_swim.offline.time_run import RunFigures, TimeRun
 
-#: The CSV's columns: world pose, body velocities, carrier and fin angles, tip in the body frame.
-RUN_COLUMNS = (
-    "t_s", "x_m", "y_m", "psi_rad", "u_m_s", "v_m_s", "r_rad_s",
-    "carrier_angle_rad", "fin_angle_rad", "tip_x_body_m", "tip_y_body_m",
-)  # fmt: skip
+#: The CSV's columns before the tail's own: time, world pose, body velocities.
+POSE_COLUMNS = ("t_s", "x_m", "y_m", "psi_rad", "u_m_s", "v_m_s", "r_rad_s")
+#: The CSV's last columns: fin angle, tip in the body frame.
+FIN_COLUMNS = ("fin_angle_rad", "tip_x_body_m", "tip_y_body_m")
+#: The CSV's columns with the Cardan tail, whose own column is the carrier angle (the servo tail
+#: has none).
+RUN_COLUMNS = (*POSE_COLUMNS, "carrier_angle_rad", *FIN_COLUMNS)
 
 
 def write_run_csv(run: TimeRun, path: Path) -> None:
@@ -26,15 +28,17 @@ def write_run_csv(run: TimeRun, path: Path) -> None:
     time_s = run.trajectory.time_s
     state = run.trajectory.state[:, :1]
     flow, _, tail = run.model.forces(time_s[:, None], state)
-    carrier_angle, _, _ = run.drive.carrier(time_s[:, None])
+    own = run.beats.run_columns(time_s)
+    names = (*POSE_COLUMNS, *(name for name, _ in own), *FIN_COLUMNS)
     columns = [
         time_s, state[:, 0, X], state[:, 0, Y], state[:, 0, PSI],
         state[:, 0, SURGE], state[:, 0, SWAY], state[:, 0, YAW_RATE],
-        carrier_angle[:, 0], tail.fin_angle[:, 0], flow.tip_body_x[:, 0], flow.tip_body_y[:, 0],
+        *(values for _, values in own),
+        tail.fin_angle[:, 0], flow.tip_body_x[:, 0], flow.tip_body_y[:, 0],
     ]  # fmt: skip
     with open(path, "w", encoding="utf-8", newline="") as stream:
         writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow(RUN_COLUMNS)
+        writer.writerow(names)
         for row in zip(*columns, strict=True):
             writer.writerow([f"{value:.12g}" for value in row])
 
@@ -43,8 +47,7 @@ def write_figures(run: TimeRun, figures: RunFigures, directory: Path) -> list[Pa
     """Speed against time, path, heading, and thrust over the last whole beat, as PNG."""
     time_s = run.trajectory.time_s
     state = run.trajectory.state[:, 0]
-    speed = float(run.carrier_speed_rad_s[0])
-    title = f"{run.drive.tail.name}, {speed:g} rad/s"
+    title = run.beats.label(0)
     end = float(figures.end_s[0])
     period = float(run.beat_period_s[0])
     in_beat = (time_s >= end - period - 1e-9 * period) & (time_s <= end + 1e-9 * period)
