@@ -174,7 +174,7 @@ def fit_drag(swimmer: Swimmer, measurements: Measurements) -> FitResult:
     )
     return FitResult(
         fish, (fitted,), model_speed, None,
-        "cycle-average balance, sway and yaw held (yaw rates give the free body's C_D and K_D)",
+        "cycle-average balance, sway and yaw held; C_D in closed form",
         balance.row_drag_coefficient,
     )  # fmt: skip
 

@@ -17,6 +17,7 @@ from fishtail_plant.fish.fish import FloatArray
 from fishtail_swim.offline.fit import FitRefusedError, FitResult
 from fishtail_swim.offline.fit_measurements import Measurements
 from fishtail_swim.offline.fit_problem import (
+    MAX_FREE_BODY_EVALUATIONS,
     FitProblem,
     RunModel,
     check_determined,
@@ -31,7 +32,7 @@ class LeaveOneOut(NamedTuple):
 
     speed_m_s: FloatArray
     yaw_rate_rad_s: FloatArray | None
-    #: Runs whose fold converged within the solver's evaluations (NaN rows count as converged).
+    #: Whether the folds' fit converged within the solver's evaluations.
     converged: bool
 
     @property
@@ -67,7 +68,10 @@ def leave_one_out(model: RunModel, measurements: Measurements, result: FitResult
     problem = FitProblem(model, measurements, folds, bounds)
     start = np.array([value.value for value in result.fitted])
     if turning:
-        model.progress = Progress(f"leave-one-out ({len(folds)} folds)", 40)
+        model.progress = Progress(
+            f"leave-one-out ({len(folds)} folds, at most {MAX_FREE_BODY_EVALUATIONS} batches)",
+            MAX_FREE_BODY_EVALUATIONS,
+        )
         model.batches = 0
     try:
         point, converged = solve(problem, start)
