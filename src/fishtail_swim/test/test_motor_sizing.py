@@ -265,6 +265,9 @@ def test_motor_prints_the_table_the_limits_and_writes_a_png(swim_cli, tmp_path):
     assert lines[header + 3].endswith("over the supply")  # 3 Hz needs 12.6 V at the peak
     assert "constant speed (V peak = supply):           2.90 Hz" in out
     assert "sustains 3.75 Hz at full duty (12 V, PWM 255)" in out
+    held = next(i for i, line in enumerate(lines) if line.startswith("f [Hz]  held thrust [N]"))
+    assert [line.split()[0] for line in lines[held + 1 : held + 4]] == ["1.00", "2.00", "3.00"]
+    assert lines[held + 1].split()[2:] == ["0.0000", "0.0000"]  # no fin plate: no held power
     assert f"wrote {figure}" in out
     with Image.open(figure) as image:
         assert image.format == "PNG"

@@ -89,6 +89,12 @@ def write_sizing_report(sizing: MotorSizing, tail_text: str, out: TextIO) -> Non
         "torques at the carrier:\n"
     )
     write_table(sizing_columns(sizing.rows), out, as_csv=False)
+    if sizing.held is not None:
+        out.write(
+            "\nthe fish held still (a bollard test), at the same beat frequencies; the tail's "
+            "power into the water, and the fin plate's drag's share of it:\n"
+        )
+        write_table(held_fish_columns(sizing.held), out, as_csv=False)
     constant, mean = (_speed_text(speed) for speed in sizing.limits)
     out.write(
         f"\nhighest beat frequency at full duty ({p.supply_voltage_v:g} V, PWM 255):\n"
@@ -97,12 +103,6 @@ def write_sizing_report(sizing: MotorSizing, tail_text: str, out: TextIO) -> Non
         f"  time-stepped (the DC motor model, loaded):  {_run_text(sizing.run)}\n\n"
         f"{sizing.verdict}\n"
     )
-    if sizing.held is not None:
-        out.write(
-            "\nthe fish held still (a bollard test), at the table's beat frequencies; the tail's "
-            "power into the water, of which the fin plate's drag:\n"
-        )
-        write_table(held_fish_columns(sizing.held), out, as_csv=False)
 
 
 def _pyplot() -> Any:
