@@ -2,8 +2,9 @@
 
 Balance (fast, every row at once): the body held at u = U, v = r = 0, U from
 :func:`~fishtail_plant.fish.figures.steady_surge_speed`, the figures from the trailing-edge force
-over one beat. Check (slow): the same fish free in sway and yaw, stepped from rest
-(:mod:`.time_run`). Columns and definitions: docs/swimming-dynamics.md (``steady``).
+over one beat (with a fin plate, its drag too), and the fish held still (a bollard test). Check
+(slow): the same fish free in sway and yaw, stepped from rest (:mod:`.time_run`). Columns and
+definitions: docs/swimming-dynamics.md (``steady``).
 """
 
 from __future__ import annotations
@@ -13,9 +14,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_plant.fish.figures import steady_surge_speed, tail_power
+from fishtail_plant.fish.figures import (
+    fin_drag_tail_power,
+    held_fish,
+    steady_surge_speed,
+    tail_power,
+)
 from fishtail_plant.fish.fish import FishParameters, FloatArray
-from fishtail_plant.fish.model import trailing_edge_force
+from fishtail_plant.fish.model import fin_drag, trailing_edge_force
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.tables import Column
@@ -43,6 +49,8 @@ class BalanceRows(NamedTuple):
     mean_thrust_n: FloatArray
     tail_power_w: FloatArray
     froude_efficiency: FloatArray
+    held_thrust_n: FloatArray
+    held_tail_power_w: FloatArray
 
 
 class SteadyRows(NamedTuple):
@@ -56,6 +64,8 @@ class SteadyRows(NamedTuple):
     mean_thrust_n: FloatArray
     tail_power_w: FloatArray
     froude_efficiency: FloatArray
+    held_thrust_n: FloatArray
+    held_tail_power_w: FloatArray
 
 
 class CheckRows(NamedTuple):
@@ -95,13 +105,19 @@ def _balance_batch(fish: FishParameters, beats: TailBeats) -> BalanceRows:
     surge = np.broadcast_to(speed, tail.tip_x.shape)
     held = np.zeros_like(surge)
     force = trailing_edge_force(fish, tail, surge, held, held).force
-    thrust = force.x.mean(axis=0)
-    power = tail_power(force, tail).mean(axis=0)
+    push, work = force.x, tail_power(force, tail)
+    if fish.has_fin_drag:
+        plate = fin_drag(fish, tail, surge, held, held)
+        push, work = push + plate.force.x, work + fin_drag_tail_power(plate, tail)
+    thrust, power = push.mean(axis=0), work.mean(axis=0)
+    still = held_fish(drive, fish, period, BEAT_SAMPLES)
     frequency = 1.0 / period
     excursion = np.ptp(tail.tip_y, axis=0)
     return BalanceRows(
         frequency, speed, speed / fish.body_length_m, frequency * excursion / speed,
         thrust, power, thrust * speed / power,
+        np.broadcast_to(still.thrust_n, speed.shape),
+        np.broadcast_to(np.round(still.tail_power_w, 12) + 0.0, speed.shape),
     )  # fmt: skip
 
 
@@ -115,6 +131,8 @@ def balance_columns(beats: TailBeats, rows: BalanceRows) -> list[Column]:
         Column("thrust [N]", rows.mean_thrust_n, ".4g", "mean_thrust_n"),
         Column("power [W]", rows.tail_power_w, ".4g", "tail_power_w"),
         Column("efficiency", rows.froude_efficiency, ".3f", "froude_efficiency"),
+        Column("held thrust [N]", rows.held_thrust_n, ".4g", "held_thrust_n"),
+        Column("held power [W]", rows.held_tail_power_w, ".4g", "held_tail_power_w"),
     ]
 
 
