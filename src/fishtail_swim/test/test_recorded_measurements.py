@@ -304,3 +304,39 @@ def test_a_missing_bag_is_refused(tmp_path):
 def test_a_criterion_out_of_range_is_refused(changes):
     with pytest.raises(ValueError):
         SteadyCriterion(**changes)
+
+
+def test_fit_takes_a_bag_and_writes_the_measurements_it_gave(bags, swim_cli, tmp_path):
+    """The synthetic fish is no model fish: the fit may be contradicted, but it reads the bag."""
+    written = tmp_path / "segments.csv"
+    status, out, err = swim_cli(
+        "fit", "--bag", bags["joint"], "--write-measurements", written, "--force",
+        "--coefficients", "quadratic",
+    )  # fmt: skip
+    assert status == 0, err
+    assert f"2 steady segment(s) in {bags['joint']}" in out
+    assert f"wrote {written}" in out
+    expected = measurements_from_bag(bags["joint"]).csv_text()
+    assert written.read_text("utf-8") == expected
+
+
+@pytest.mark.parametrize(
+    "arguments, words",
+    [
+        (("fit",), "fit takes a MEASUREMENTS.csv file or --bag DIR (one of them)"),
+        (("fit", "m.csv", "--bag", "b"), "fit takes a MEASUREMENTS.csv file or --bag DIR"),
+        (("fit", "m.csv", "--write-measurements", "x.csv"),
+         "--write-measurements and --namespace go with --bag"),
+        (("fit", "--bag", "nowhere"), "nowhere"),
+    ],
+)  # fmt: skip
+def test_fit_refuses_a_wrong_bag_request_in_one_line(swim_cli, arguments, words):
+    status, out, err = swim_cli(*arguments)
+    assert status == 2
+    assert words in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_fit_of_a_bag_without_a_steady_segment_says_why(swim_cli, tmp_path):
+    status, _, err = swim_cli("fit", "--bag", write_bag(tmp_path / "short", run=Run(7.0)))
+    assert status == 2
+    assert "no steady segment: too short:" in err and len(err.strip().splitlines()) == 1, err

@@ -16,6 +16,7 @@ from typing import TextIO
 
 import numpy as np
 
+from fishtail_common.bag_reading import BagError
 from fishtail_common.command_line import OneLineErrorParser, UsageError, add_parameter_options
 from fishtail_common.parameters import ParameterSpec
 from fishtail_plant.fish.tail_drive import SERVO_TAIL_PARAMETERS_BY_NAME
@@ -38,11 +39,17 @@ from fishtail_swim.offline.fit_free_body import (
 )
 from fishtail_swim.offline.fit_least_squares import fit_coefficients, run_model
 from fishtail_swim.offline.fit_loo import leave_one_out
-from fishtail_swim.offline.fit_measurements import CARDAN, Measurements, read_measurements
+from fishtail_swim.offline.fit_measurements import (
+    CARDAN,
+    Measurements,
+    parse_measurements,
+    read_measurements,
+)
 from fishtail_swim.offline.fit_problem import COEFFICIENT_SETS, check_determined, coefficient_names
 from fishtail_swim.offline.fit_report import write_fit_report
 from fishtail_swim.offline.inputs import PROGRAM, Swimmer, swimmer_from_arguments
 from fishtail_swim.offline.options import STEPS_PER_BEAT
+from fishtail_swim.offline.recorded_measurements import measurements_from_bag
 from fishtail_swim.offline.time_run import SUMMARY_BEATS
 
 #: Free-body runs of fit (turning sets): long enough for the figures' last beats.
@@ -63,10 +70,22 @@ def add_fit_parser(
         "or servo tail; print residuals and leave-one-out errors; write a fish file",
     )  # fmt: skip
     fit.add_argument(
-        "measurements", type=Path, metavar="MEASUREMENTS.csv",
+        "measurements", type=Path, metavar="MEASUREMENTS.csv", nargs="?",
         help="CSV with a header: carrier_speed_rad_s (Cardan) or amplitude_rad,bias_rad,"
         "frequency_hz (servo), then speed_m_s[,yaw_rate_rad_s][,turning_radius_m] (# comments; "
-        "an empty turn cell is not measured)",
+        "an empty turn cell is not measured); or --bag",
+    )  # fmt: skip
+    fit.add_argument(
+        "--bag", type=Path, metavar="DIR",
+        help="fit a recorded run instead: its steady segments (fish/odom with motor/joint_state "
+        "or tail/state) become the measurements",
+    )  # fmt: skip
+    fit.add_argument(
+        "--namespace", metavar="NS", help="--bag: the fish's namespace in the bag (e.g. /fish1)"
+    )
+    fit.add_argument(
+        "--write-measurements", type=Path, metavar="FILE",
+        help="--bag: also write the measurements the recording gave, as a file fit reads",
     )  # fmt: skip
     fit.add_argument(
         "--coefficients", choices=tuple(COEFFICIENT_SETS),
@@ -100,8 +119,10 @@ def _fit(
     settings: RunSettings,
 ) -> FitResult:
     # The Cardan tail's quadratic and turning sets keep their exact closed form and time-scaled
-    # free body (time scaling needs every force quadratic and every yaw rate measured).
-    if measurements.kind == CARDAN and names == (DRAG,):
+    # free body (both need every force quadratic, so no linear damping in the fish, and time
+    # scaling every yaw rate measured).
+    quadratic = not swimmer.fish.has_linear_damping
+    if measurements.kind == CARDAN and names == (DRAG,) and quadratic:
         return fit_drag(swimmer, measurements)
     whole_yaw = measurements.yaw_rate_rad_s is not None and bool(
         np.isfinite(measurements.yaw_rate_rad_s).all()
@@ -111,9 +132,46 @@ def _fit(
         and names == (DRAG, YAW_DAMPING)
         and whole_yaw
         and measurements.turning_radius_m is None
+        and quadratic
     ):
         return fit_drag_and_yaw_damping(swimmer, measurements, settings)
     return fit_coefficients(swimmer, measurements, names, fin_length_m, settings)
+
+
+def _measurements(arguments: argparse.Namespace, out: TextIO) -> tuple[Measurements, str]:
+    """The measurements of the file, or of the recording's steady segments; and their source.
+
+    Raises:
+        UsageError: both a file and --bag, or neither; options of --bag without it; a bag that
+            cannot be read or has no steady segment (the line says why).
+    """
+    bag: Path | None = arguments.bag
+    if (bag is None) == (arguments.measurements is None):
+        raise UsageError("fit takes a MEASUREMENTS.csv file or --bag DIR (one of them)")
+    if bag is None:
+        if arguments.write_measurements is not None or arguments.namespace is not None:
+            raise UsageError("--write-measurements and --namespace go with --bag")
+        return read_measurements(arguments.measurements), str(arguments.measurements)
+    try:
+        segments = measurements_from_bag(bag, namespace=arguments.namespace)
+    except BagError as error:
+        raise UsageError(str(error)) from None
+    text = segments.csv_text()
+    source = f"{bag} (steady segments)"
+    written: Path | None = arguments.write_measurements
+    if written is not None:
+        try:
+            written.write_text(text, "utf-8")
+        except OSError as error:
+            raise UsageError(f"cannot write {written}: {error.strerror or error}") from None
+    notes = sys.stderr if arguments.csv else out
+    print(f"{len(segments.segments)} steady segment(s) in {bag}:", file=notes)
+    for line in text.splitlines():
+        if line.startswith("#"):
+            print(f"  {line.lstrip('# ')}", file=notes)
+    if written is not None:
+        print(f"wrote {written}", file=notes)
+    return parse_measurements(text.splitlines(), source), source
 
 
 def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
@@ -126,7 +184,7 @@ def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
         UsageError: an output that cannot be written; and the errors of
             :func:`~fishtail_swim.offline.inputs.swimmer_from_arguments`.
     """
-    measurements = read_measurements(arguments.measurements)
+    measurements, source = _measurements(arguments, out)
     swimmer = swimmer_from_arguments(arguments)
     output: Path | None = arguments.output
     if output is not None and not output.parent.is_dir():
@@ -154,7 +212,7 @@ def run_fit(arguments: argparse.Namespace, out: TextIO) -> None:
         print(f"{PROGRAM}: warning: {warning}", file=sys.stderr)
     if output is not None:
         try:
-            output.write_text(fish_file_text(result, str(arguments.measurements)), "utf-8")
+            output.write_text(fish_file_text(result, source), "utf-8")
         except OSError as error:
             raise UsageError(f"cannot write {output}: {error.strerror or error}") from None
         print(f"wrote {output}", file=notes)
