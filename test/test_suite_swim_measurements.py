@@ -33,7 +33,8 @@ from fishtail_plant.fish.integrator import simulate
 from fishtail_plant.fish.model import SwimModel
 from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_plant.values import read_fish_values
-from fishtail_swim.offline.recorded_measurements import SteadyCriterion, measurements_from_bag
+from fishtail_swim.offline.recorded_measurements import measurements_from_bag
+from fishtail_swim.offline.steady_segments import SteadyCriterion
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

@@ -24,12 +24,11 @@ from fishtail_common.bag_types import suite_typestore
 from fishtail_common.interface import FISH_ODOM, MOTOR_JOINT_STATE, TAIL_STATE
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
-from fishtail_swim.offline.recorded_measurements import (
-    CSV_HEADER,
+from fishtail_swim.offline.recorded_measurements import CSV_HEADER, measurements_from_bag
+from fishtail_swim.offline.steady_segments import (
     NoSteadySegmentError,
     RecordedSamples,
     SteadyCriterion,
-    measurements_from_bag,
     steady_segments,
 )
 
