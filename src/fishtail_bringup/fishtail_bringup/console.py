@@ -65,6 +65,17 @@ def fish_text(speed_m_s: float | None, heading_rad: float | None) -> str:
     return f"fish {speed_m_s:.3f} m/s heading {math.degrees(heading_rad):+6.2f}°"
 
 
+def fish_preparing_text(phase: str, seconds: float) -> str:
+    """The fish's part of the status line while the simulator prepares its integrator.
+
+    ``phase``: the simulator's diagnostic value ``integrator`` (compiling, loading, preparing).
+
+    >>> fish_preparing_text("compiling", 12.4)
+    'fish: preparing (compiling, 12 s so far)'
+    """
+    return f"fish: preparing ({phase}, {seconds:.0f} s so far)"
+
+
 def pilot_text(
     position_m: tuple[float, float], heading_rad: float, goal_m: tuple[float, float] | None
 ) -> str:

@@ -6,9 +6,11 @@ The status line it shows is made by :mod:`fishtail_bringup.console`'s plain func
 from __future__ import annotations
 
 import math
+import time
 
 from fishtail_bringup.console import (
     GoalRoute,
+    fish_preparing_text,
     fish_text,
     level_name,
     motor_text,
@@ -31,6 +33,8 @@ from fishtail_common.interface import (
 COMMAND_PERIOD_S = 0.1
 #: How often the current waypoint is sent again (a goal sent before the pilot subscribed is lost).
 GOAL_PERIOD_S = 1.0
+#: The simulator's diagnostic value ``integrator`` while it prepares (compiles) its integrator.
+INTEGRATOR_PREPARING = ("compiling", "loading", "preparing")
 
 
 class Console:
@@ -71,6 +75,8 @@ class Console:
         self.torque_n_m: float | None = None
         self.current_a: float | None = None
         self.diagnostics: dict[str, tuple[int, str]] = {}
+        #: The simulator's integrator while it prepares: (phase, seconds so far, when received).
+        self.integrator: tuple[str, float, float] | None = None
         # Only a console that commands the motor publishes the command topic: the computer that
         # does is the one whose loss the driver's watchdog answers.
         self.publisher = None
@@ -143,15 +149,28 @@ class Console:
         # Shown when a status changes level (and the first time, unless it is OK), so that a WARN
         # or ERROR from any node appears above the status line once, not every second.
         for status in message.status:
-            for pair in status.values:
-                if pair.key == "current_a":
-                    self.current_a = float(pair.value)
+            values = {pair.key: pair.value for pair in status.values}
+            if "current_a" in values:
+                self.current_a = float(values["current_a"])
+            if "integrator" in values:
+                self._on_integrator(values)
             level = status.level[0]
             previous = self.diagnostics.get(status.name)
             self.diagnostics[status.name] = (level, status.message)
             if (previous is None and level != 0) or (previous is not None and previous[0] != level):
                 name = level_name(level)
                 self.say(f"[diagnostics] {status.name}: {name}: {status.message}")
+
+    def _on_integrator(self, values: dict[str, str]) -> None:
+        phase = values["integrator"]
+        if phase not in INTEGRATOR_PREPARING:
+            self.integrator = None
+            return
+        try:
+            seconds = float(values.get("integrator_s", "0"))
+        except ValueError:
+            seconds = 0.0
+        self.integrator = (phase, seconds, time.monotonic())
 
     def command(self, speed: float | None = None) -> None:
         """Publish the carrier speed (nothing when this console does not command the motor)."""
@@ -181,6 +200,10 @@ class Console:
         return line + (" | " + self._fish_part() if self.swim else "")
 
     def _fish_part(self) -> str:
+        if self.integrator is not None:
+            # Compiling on a first run: say so rather than show a fish that does not move.
+            phase, seconds, received = self.integrator
+            return fish_preparing_text(phase, seconds + time.monotonic() - received)
         fish = self.fish
         if fish is None:
             return fish_text(None, None)

@@ -5,12 +5,19 @@ equations, where numpy's per-call cost would dominate; numba compiles
 :mod:`~fishtail_plant.fish.formulas` (the numpy model's own source) into one loop. Numba is
 optional (:data:`AVAILABLE`); without it the integrator uses the numpy model. Costs, the cache
 and the fallback: docs/swimming-dynamics.md ("Integrator").
+
+Compiling takes seconds (tens on a busy machine); numba caches the result on disk, beside this
+file (or under ``NUMBA_CACHE_DIR``). :func:`compile_loop` compiles, or loads, every specialisation
+the simulator node and ``fishtail-swim`` use: ``make setup`` runs it last
+(``python -m fishtail_plant.fish.fused``), so that no later run waits for the compiler.
 """
 
 from __future__ import annotations
 
+import sys
+import time
 from collections.abc import Callable
-from typing import Any, TypeAlias
+from typing import Any, NamedTuple, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -179,3 +186,109 @@ def rk4_block(
         state, parameters, tail, step_s, steps, model.hold_sway_yaw,
         first_step, record_every, records,
     )  # fmt: skip
+
+
+#: The compiled loop's numba dispatcher (the plain function without numba), for its cache.
+_LOOP: Any = _rk4_steps
+
+
+def loop_signatures() -> dict[str, tuple[Any, ...]]:
+    """The argument types :func:`rk4_block` calls the compiled loop with, by the batch they serve.
+
+    ``one tail``: one fish (the simulator node, the follower) or fish with a tail each (a sweep
+    over carrier speeds: ``fishtail-swim simulate``, ``steady --check``), where
+    :func:`tail_samples` is C-contiguous. ``shared tail``: many fish on one tail motion (fits,
+    turning tables), where it is broadcast with stride 0 (layout A). Both tails are read-only
+    views, ``hold`` is a bool either way (held or free fish share a specialisation). Empty
+    without numba (or with NUMBA_DISABLE_JIT set).
+    """
+    if not hasattr(_LOOP, "compile"):
+        return {}
+    from numba import types as numba_types
+
+    types: Any = numba_types
+    matrix = types.Array(types.float64, 2, "C")
+    records = types.Array(types.float64, 3, "C")
+    signatures = {}
+    layouts = (("one tail", "C"), ("shared tail", "A"))
+    for name, layout in layouts:
+        tail = types.Array(types.float64, 3, layout, readonly=True)
+        signatures[name] = (
+            matrix, matrix, tail, types.float64, types.int64, types.boolean, types.int64,
+            types.int64, records,
+        )  # fmt: skip
+    return signatures
+
+
+def cache_path() -> str | None:
+    """Where numba keeps the compiled loop (None without numba)."""
+    return str(_LOOP.stats.cache_path) if hasattr(_LOOP, "stats") else None
+
+
+def is_cached(batch: str = "one tail") -> bool | None:
+    """Whether numba's cache holds a current compiled loop for ``batch`` (:func:`loop_signatures`).
+
+    Read from numba's cache index without compiling or loading anything, so a caller can say
+    beforehand whether preparing the loop will take a fraction of a second or many. None where
+    it cannot tell (no numba, or a numba whose cache internals differ from 0.5x-0.6x).
+    """
+    if not loop_signatures():
+        return None
+    try:
+        cache = _LOOP._cache
+        key = cache._index_key(loop_signatures()[batch], _LOOP.targetctx.codegen())
+        return key in cache._cache_file._load_index()
+    except Exception:  # noqa: BLE001 - numba internals: unknown rather than wrong
+        return None
+
+
+def compiled_count() -> int:
+    """How many specialisations of the loop this process compiled (not loaded from the cache)."""
+    return sum(_LOOP.stats.cache_misses.values()) if hasattr(_LOOP, "stats") else 0
+
+
+class LoopPreparation(NamedTuple):
+    """What :func:`compile_loop` did: seconds taken, specialisations compiled and loaded."""
+
+    seconds: float
+    compiled: int
+    loaded: int
+
+
+def compile_loop(batches: tuple[str, ...] | None = None) -> LoopPreparation:
+    """Compile, or load from numba's cache, the loop for ``batches`` (default: all of them).
+
+    With a current cache this loads in well under a second; without one it compiles (about
+    10 s a specialisation on an idle 2-core machine) and writes the cache for every later
+    process. Nothing to do without numba.
+    """
+    started = time.monotonic()
+    signatures = loop_signatures()
+    if not signatures:
+        return LoopPreparation(0.0, 0, 0)
+    before = compiled_count()
+    wanted = tuple(signatures) if batches is None else batches
+    for name in wanted:
+        _LOOP.compile(signatures[name])
+    compiled = compiled_count() - before
+    return LoopPreparation(time.monotonic() - started, compiled, len(wanted) - compiled)
+
+
+def main() -> int:
+    """``python -m fishtail_plant.fish.fused``: compile (or load) the loop, and say how long."""
+    if not loop_signatures():
+        print("swimming integrator: not compiled (numba is not installed, or NUMBA_DISABLE_JIT)")
+        return 0
+    cached = is_cached() and is_cached("shared tail")
+    verb = "loading" if cached else "compiling"
+    print(f"{verb} the swimming integrator (numba; cache {cache_path()}) ...", flush=True)
+    done = compile_loop()
+    print(
+        f"{verb} the swimming integrator ... took {done.seconds:.1f} s "
+        f"({done.compiled} specialisations compiled, {done.loaded} loaded from the cache)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

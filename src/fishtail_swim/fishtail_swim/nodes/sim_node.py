@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -60,6 +61,7 @@ from fishtail_kinematics.engine.input_guard import (
 )
 from fishtail_msgs.msg import SwimFigures
 from fishtail_plant.errors import SwimError
+from fishtail_plant.fish import fused
 from fishtail_plant.fish.beats import BeatFigures
 from fishtail_plant.fish.fish import FISH_PARAMETERS
 from fishtail_plant.fish.follower import CarrierJumpError, StampNotIncreasingError, SwimFollower
@@ -93,6 +95,34 @@ PIVOT_RESOLUTION_M = 1e-4
 SPEED_WARN_TOLERANCE = 0.01
 #: The simulator's drop reasons: the follower's, and a carrier jump.
 SIM_REASONS = (*FOLLOWER_REASONS, CARRIER_JUMP)
+#: The integrator's phases (diagnostic value ``integrator``): while it is being prepared (numba's
+#: cache had no current loop, had one, or cannot tell), and once it is ready.
+COMPILING, LOADING, PREPARING = "compiling", "loading", "preparing"
+COMPILED, LOADED, READY = "compiled", "loaded", "ready"
+PREPARING_PHASES = (COMPILING, LOADING, PREPARING)
+#: What a cold compile takes, said beforehand: 6-12 s on an idle 2-core x86 machine, 17-18 s
+#: there while the rest of the suite starts.
+COMPILE_ESTIMATE_S = 20
+#: How often the node looks whether its integrator is ready.
+READY_POLL_S = 0.1
+
+
+def preparing_text(phase: str, seconds: float) -> str:
+    """The simulator's status while its integrator is being prepared.
+
+    >>> preparing_text("compiling", 12.3)
+    'compiling the swimming integrator, 12 s so far (first run after set-up or an upgrade, about 20 s): the fish swims once it is ready'
+    """  # noqa: E501
+    why = (
+        f" (first run after set-up or an upgrade, about {COMPILE_ESTIMATE_S} s)"
+        if phase == COMPILING
+        else ""
+    )
+    return (
+        f"{phase} the swimming integrator, {seconds:.0f} s so far{why}: the fish swims once it "
+        "is ready"
+    )
+
 
 MAX_STEP = ParameterSpec(
     "max_step_sec",
@@ -164,11 +194,6 @@ class SimNode(SuiteNodeBase):
             max_interval_s=self.stale_timeout_s,
             max_speed_rad_s=self.max_carrier_speed,
         )
-        # Before subscribing: no sample waits for the compiler (seconds on a first run).
-        self.get_logger().info("preparing the integrator (compiled on a first run, then cached)")
-        started = time.monotonic()
-        self.follower.warm_up()
-        self.warm_up_s = time.monotonic() - started
         self.motor_joint_name = str(values[MOTOR_JOINT_NAME.name])
         self.carrier_joint = CarrierJoint(self.motor_joint_name)
         self.guard = CarrierGuard()
@@ -199,18 +224,9 @@ class SimNode(SuiteNodeBase):
         self.odom_publisher = ListenedPublisher(self, Odometry, FISH_ODOM)
         self.figures_publisher = suite_publisher(self, SwimFigures, FISH_SWIMMING)
         self.diagnostics_publisher = suite_publisher(self, DiagnosticArray, DIAGNOSTICS)
-        self.create_subscription(
-            JointState, INPUT_TOPIC, self._on_motor_state, subscriber_qos(MOTOR_JOINT_STATE)
-        )
         self.design_tail = tail
         self.pivot_shift_m = 0.0
         self.pivot_refusal = ""
-        self.create_subscription(
-            JointState,
-            PIVOT_JOINT_STATE.name,
-            self._on_pivot_state,
-            subscriber_qos(PIVOT_JOINT_STATE),
-        )
         self.markers = FishMarkerPublisher(
             self,
             tail,
@@ -237,8 +253,79 @@ class SimNode(SuiteNodeBase):
         self.create_timer(DIAGNOSTICS_PERIOD_S, self._on_diagnostics)
         self.get_logger().info(
             f"swimming simulator up: {tail.name} tail, body {float(fish.body_length_m):g} m, "
-            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms (integrator ready in "
-            f"{self.warm_up_s:.1f} s); tf {self.tf_state}"
+            f"sub-steps <= {self.follower.max_step_s * 1e3:g} ms; tf {self.tf_state}"
+        )
+        self._prepare_integrator()
+
+    def _prepare_integrator(self) -> None:
+        """Compile (or load) the integrator in a thread; subscribe to the carrier once it is ready.
+
+        Compiling takes 10-20 s on the first run after set-up or an upgrade (make setup does it
+        beforehand, so normally the loop is loaded from numba's cache in a fraction of a second).
+        Meanwhile the node is up, publishes /diagnostics saying so (``integrator``: compiling,
+        loading or preparing, ``integrator_s`` so far), and takes no samples: none waits for the
+        compiler while later ones pile up and are lost. The first sample after it is the fish's
+        first (joining a carrier that already turns, if it does).
+        """
+        cached = fused.is_cached()
+        self.integrator_phase = (
+            PREPARING if cached is None else LOADING if cached else COMPILING
+        )  # fmt: skip
+        self.warm_up_s: float | None = None
+        self._warm_up_error: BaseException | None = None
+        self._warm_up_started = time.monotonic()
+        if self.integrator_phase == COMPILING:
+            self.get_logger().info(
+                "compiling the swimming integrator (first run after set-up or an upgrade): "
+                f"about {COMPILE_ESTIMATE_S} s, the fish swims once it is ready "
+                f"(numba cache {fused.cache_path()})"
+            )
+        else:
+            self.get_logger().info(f"{self.integrator_phase} the swimming integrator")
+        # Polled by a timer (the suite's executor takes no guard conditions): the first sample
+        # waits at most a tenth of a second more than the integrator.
+        self._ready = threading.Event()
+        self._ready_timer = self.create_timer(READY_POLL_S, self._on_integrator_ready)
+        self._compiled_before = fused.compiled_count()
+        threading.Thread(target=self._warm_up, name="swim-integrator", daemon=True).start()
+
+    def _warm_up(self) -> None:
+        try:
+            self.follower.warm_up()
+        except Exception as error:  # noqa: BLE001 - reported; the first sample compiles instead
+            self._warm_up_error = error
+        self.warm_up_s = time.monotonic() - self._warm_up_started
+        self._ready.set()
+
+    def _on_integrator_ready(self) -> None:
+        """In the executor: say how the preparation went, then follow the carrier."""
+        if not self._ready.is_set() or self.integrator_phase not in PREPARING_PHASES:
+            return
+        self._ready_timer.cancel()
+        self.destroy_timer(self._ready_timer)
+        took = self.warm_up_s or 0.0
+        compiled = fused.compiled_count() > self._compiled_before
+        self.integrator_phase = COMPILED if compiled else LOADED if fused.AVAILABLE else READY
+        if self._warm_up_error is not None:
+            self.get_logger().error(f"preparing the integrator failed: {self._warm_up_error}")
+        elif compiled:
+            self.get_logger().info(
+                f"swimming integrator compiled in {took:.1f} s (numba cached it for the next "
+                f"runs); following {INPUT_TOPIC}"
+            )
+        else:
+            self.get_logger().info(
+                f"swimming integrator {self.integrator_phase} in {took:.1f} s; following "
+                f"{INPUT_TOPIC}"
+            )
+        self.create_subscription(
+            JointState, INPUT_TOPIC, self._on_motor_state, subscriber_qos(MOTOR_JOINT_STATE)
+        )
+        self.create_subscription(
+            JointState,
+            PIVOT_JOINT_STATE.name,
+            self._on_pivot_state,
+            subscriber_qos(PIVOT_JOINT_STATE),
         )
 
     def _on_pivot_state(self, message: JointState) -> None:
@@ -414,7 +501,14 @@ class SimNode(SuiteNodeBase):
         row = self.follower.state[0]
         speed = math.hypot(float(row[SURGE]), float(row[SWAY]))
         heading_deg = math.degrees(float(row[PSI]))
-        if (
+        preparing = self.integrator_phase in PREPARING_PHASES
+        integrator_s = (
+            time.monotonic() - self._warm_up_started if preparing else (self.warm_up_s or 0.0)
+        )
+        if preparing:
+            # Not stale: nothing is taken until the integrator is ready.
+            level, text = Level.OK, preparing_text(self.integrator_phase, integrator_s)
+        elif (
             self.last_input_ns is None
             or (now_ns - self.last_input_ns) * 1e-9 > self.stale_timeout_s
         ):
@@ -433,7 +527,9 @@ class SimNode(SuiteNodeBase):
             "restarts": str(self.follower.restarts),
             "received": str(self.received),
             "tf": self.tf_state,
-            "integrator_ready_s": f"{self.warm_up_s:.3g}",
+            "integrator": self.integrator_phase,
+            "integrator_s": f"{integrator_s:.3g}",
+            "integrator_ready_s": "" if preparing else f"{integrator_s:.3g}",
             "pivot_shift_m": f"{self.pivot_shift_m:.6g}",
             **carrier_values,
             **input_values,
