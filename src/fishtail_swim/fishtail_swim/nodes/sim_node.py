@@ -261,7 +261,8 @@ class SimNode(SuiteNodeBase):
         """Compile (or load) the integrator in a thread; subscribe to the carrier once it is ready.
 
         Compiling takes 10-20 s on the first run after set-up or an upgrade (make setup does it
-        beforehand, so normally the loop is loaded from numba's cache in a fraction of a second).
+        beforehand, so normally the loop is loaded from numba's cache in a fraction of a second,
+        which is done right here).
         Meanwhile the node is up, publishes /diagnostics saying so (``integrator``: compiling,
         loading or preparing, ``integrator_s`` so far), and takes no samples: none waits for the
         compiler while later ones pile up and are lost. The first sample after it is the fish's
@@ -282,11 +283,17 @@ class SimNode(SuiteNodeBase):
             )
         else:
             self.get_logger().info(f"{self.integrator_phase} the swimming integrator")
+        self._ready = threading.Event()
+        self._compiled_before = fused.compiled_count()
+        if self.integrator_phase == LOADING:
+            # A fraction of a second: here, as any start-up work (a thread would only compete
+            # for the interpreter with the nodes of a --one-process suite).
+            self._warm_up()
+            self._on_integrator_ready()
+            return
         # Polled by a timer (the suite's executor takes no guard conditions): the first sample
         # waits at most a tenth of a second more than the integrator.
-        self._ready = threading.Event()
-        self._ready_timer = self.create_timer(READY_POLL_S, self._on_integrator_ready)
-        self._compiled_before = fused.compiled_count()
+        self._ready_timer: Any = self.create_timer(READY_POLL_S, self._on_integrator_ready)
         threading.Thread(target=self._warm_up, name="swim-integrator", daemon=True).start()
 
     def _warm_up(self) -> None:
@@ -301,8 +308,9 @@ class SimNode(SuiteNodeBase):
         """In the executor: say how the preparation went, then follow the carrier."""
         if not self._ready.is_set() or self.integrator_phase not in PREPARING_PHASES:
             return
-        self._ready_timer.cancel()
-        self.destroy_timer(self._ready_timer)
+        if self.integrator_phase != LOADING:
+            self._ready_timer.cancel()
+            self.destroy_timer(self._ready_timer)
         took = self.warm_up_s or 0.0
         compiled = fused.compiled_count() > self._compiled_before
         self.integrator_phase = COMPILED if compiled else LOADED if fused.AVAILABLE else READY
