@@ -52,6 +52,12 @@ def build_parser() -> argparse.ArgumentParser:
         "swimming figures (override --config; defaults are the monitor's)"
     )
     add_parameter_flags(swimming, SWIMMING_PARAMETERS)
+    swimming.add_argument(
+        "--assumed-speed-only",
+        action="store_true",
+        help="use forward_speed_m_s for every beat even where the bag recorded the fish "
+        "(default: U from fish/odom, else fish/swimming, per beat; the assumed U elsewhere)",
+    )
     return parser
 
 
@@ -70,6 +76,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             arguments.output_dir,
             arguments.namespace,
             overrides,
+            use_recorded_speed=not arguments.assumed_speed_only,
         )
     except (AnalysisError, FishtailKinematicsError) as error:
         print(f"{PROGRAM}: error: {error}", file=sys.stderr)

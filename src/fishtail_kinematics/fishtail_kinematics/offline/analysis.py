@@ -34,7 +34,8 @@ from fishtail_kinematics.engine.parameters import (
 from fishtail_kinematics.engine.swimming import (
     SwimmingFigures,
     SwimmingParameters,
-    swimming_figures,
+    figures_from_kinematics,
+    tip_kinematics,
 )
 from fishtail_kinematics.engine.symmetry import (
     DEFAULT_GAP_RESET_S,
@@ -49,8 +50,10 @@ from fishtail_kinematics.engine.symmetry import (
     judge,
 )
 from fishtail_kinematics.offline.analysis_figures import write_figures
+from fishtail_kinematics.offline.recorded_speed import SOURCE_ASSUMED, beat_speed
 from fishtail_kinematics.offline.recording import (
     AnalysisError,
+    RecordedFish,
     Recording,
     describe_error,
     read_recording,
@@ -88,11 +91,52 @@ class JudgedBeat:
 
 
 @dataclasses.dataclass(frozen=True)
+class BeatSwimming:
+    """The swimming figures of one beat, with the forward speed U used and where it came from."""
+
+    index: int  # 1-based
+    start_s: float  # on the recording's time axis (s after its first sample)
+    end_s: float
+    forward_speed_m_s: float
+    speed_source: str  # fish/odom, fish/swimming or assumed (recorded_speed.SOURCE_*)
+    figures: SwimmingFigures
+
+
+@dataclasses.dataclass(frozen=True)
 class SwimmingResult:
-    """The swimming figures of the recording, and the parameters they assume."""
+    """The swimming figures of the recording, and the parameters they assume.
+
+    ``parameters.forward_speed_m_s`` is the time-mean of the beats' U; ``per_beat`` has each
+    beat's U (recorded where the recording has the fish, else assumed) and figures. When some U
+    was recorded, the overall mean thrust is the time-mean of the beats' thrusts.
+    """
 
     figures: SwimmingFigures
     parameters: SwimmingParameters
+    per_beat: tuple[BeatSwimming, ...] = ()
+    assumed_speed_m_s: float = math.nan  # the forward_speed_m_s parameter
+    #: Why a recorded speed was not used where none was (for the report).
+    assumed_because: str = ""
+
+    @property
+    def recorded_beats(self) -> int:
+        """How many beats have a recorded U."""
+        return sum(beat.speed_source != SOURCE_ASSUMED for beat in self.per_beat)
+
+    @property
+    def speed_origin(self) -> str:
+        """``recorded`` (every beat), ``assumed`` (none) or ``partly recorded``."""
+        recorded = self.recorded_beats
+        if recorded == 0:
+            return "assumed"
+        return "recorded" if recorded == len(self.per_beat) else "partly recorded"
+
+    @property
+    def speed_sources(self) -> list[str]:
+        """The recorded sources used, in order of first use."""
+        return list(
+            dict.fromkeys(b.speed_source for b in self.per_beat if b.speed_source != SOURCE_ASSUMED)
+        )
 
 
 @dataclasses.dataclass
@@ -244,11 +288,15 @@ def swimming_of(
     state: Mapping[str, FloatArray],
     fin_angle_field: str,
     values: Mapping[str, object],
+    fish: RecordedFish | None = None,
 ) -> SwimmingResult | None:
     """The swimming figures of the recording; None (with a note saying why) if there are none.
 
     The fin angle is the last link's (theta3, or the fin joint's). ``values`` (config file and
-    flags) may set the swimming parameters; the others are the monitor's defaults.
+    flags) may set the swimming parameters; the others are the monitor's defaults. ``fish``, the
+    recorded fish, gives each beat its U where it covers the beat
+    (:func:`~fishtail_kinematics.offline.recorded_speed.beat_speed`); elsewhere U is the
+    ``forward_speed_m_s`` of ``values``.
     """
     time_s = recording.time_s
     tip_y, tip_y_dot, fin_angle = state["tip_y"], state["tip_y_dot"], state[fin_angle_field]
@@ -259,12 +307,36 @@ def swimming_of(
             np.tile(series, _CSV_CYCLES) for series in (tip_y, tip_y_dot, fin_angle)
         )
     try:
-        parameters = SwimmingParameters.from_values(values)
-        figures = swimming_figures(time_s, tip_y, tip_y_dot, fin_angle, parameters)
+        assumed = SwimmingParameters.from_values(values)
+        overall = tip_kinematics(time_s, tip_y, tip_y_dot, fin_angle)
+        per_beat = []
+        for index, beat in enumerate(beats_of(time_s, fin_angle), start=1):
+            speed, source = beat_speed(fish, beat.start_s, beat.end_s, assumed.forward_speed_m_s)
+            kinematics = tip_kinematics(time_s, tip_y, tip_y_dot, fin_angle, beats=[beat])
+            parameters = dataclasses.replace(assumed, forward_speed_m_s=speed)
+            per_beat.append(
+                BeatSwimming(
+                    index, beat.start_s, beat.end_s, speed, source,
+                    figures_from_kinematics(kinematics, parameters),
+                )
+            )  # fmt: skip
+        durations = np.array([b.end_s - b.start_s for b in per_beat])
+        mean_speed = float(
+            np.dot(durations, [b.forward_speed_m_s for b in per_beat]) / np.sum(durations)
+        )
+        parameters = dataclasses.replace(assumed, forward_speed_m_s=mean_speed)
+        figures = figures_from_kinematics(overall, parameters)
+        if any(b.speed_source != SOURCE_ASSUMED for b in per_beat):
+            thrust = float(np.dot(durations, [b.figures.mean_thrust_n for b in per_beat]))
+            figures = dataclasses.replace(figures, mean_thrust_n=thrust / float(np.sum(durations)))
     except ValueError as error:
         recording.notes.append(f"swimming figures not available: {describe_error(error)}")
         return None
-    return SwimmingResult(figures, parameters)
+    if fish is None:
+        because = "the recording has no fish/odom or fish/swimming"
+    else:
+        because = "the recorded fish/odom and fish/swimming do not cover these beats"
+    return SwimmingResult(figures, parameters, tuple(per_beat), assumed.forward_speed_m_s, because)
 
 
 def _csv_speed(tail: Tail, recording: Recording) -> float:
@@ -302,10 +374,13 @@ def analyse(
     output_dir: str | Path | None = None,
     namespace: str | None = None,
     overrides: Mapping[str, float] | None = None,
+    use_recorded_speed: bool = True,
 ) -> Report:
     """Read, recompute, tabulate the beats and write the figures.
 
     ``overrides`` replace values of the parameter file (e.g. the swimming parameters).
+    ``use_recorded_speed``: the swimming figures take U from the recorded fish where the bag has
+    one (else, and with False, the assumed ``forward_speed_m_s``).
 
     Raises:
         AnalysisError: unusable input, geometry or tolerances, or figures that cannot be written.
@@ -345,5 +420,10 @@ def analyse(
 
     figures = write_figures(recording, source, tail, output_dir)
     report = Report(recording, geometry, geometry_source, disagreement, beats, figures)
-    report.swimming = swimming_of(recording, source, tail.fin_angle_field(), values)
+    fish = recording.fish if use_recorded_speed else None
+    report.swimming = swimming_of(recording, source, tail.fin_angle_field(), values, fish)
+    if report.swimming is not None and recording.fish is not None and not use_recorded_speed:
+        report.swimming = dataclasses.replace(
+            report.swimming, assumed_because="the recorded fish's speed not used, as asked"
+        )
     return report

@@ -18,22 +18,61 @@ from fishtail_kinematics.offline.analysis import (
 )
 
 
+def speed_text(result: SwimmingResult) -> str:
+    """Which U the swimming figures use: recorded (per beat, from which topic) or assumed."""
+    p = result.parameters
+    if result.speed_origin == "assumed":
+        why = f"; {result.assumed_because}" if result.assumed_because else ""
+        return f"U = {p.forward_speed_m_s:g} m/s assumed (forward_speed_m_s{why})"
+    speeds = [b.forward_speed_m_s for b in result.per_beat]
+    sources = " and ".join(result.speed_sources)
+    text = (
+        f"U recorded per beat ({sources}), {min(speeds):.3g}-{max(speeds):.3g} m/s, "
+        f"mean {p.forward_speed_m_s:.3g} m/s"
+    )
+    if result.speed_origin != "recorded":
+        text += (
+            f"; recorded for {result.recorded_beats} of {len(result.per_beat)} beats, "
+            f"{result.assumed_speed_m_s:g} m/s assumed (forward_speed_m_s) for the others"
+        )
+    return text
+
+
 def swimming_text(result: SwimmingResult) -> str:
     """One line for the swimming figures and what they assume."""
     p = result.parameters
     figures = result.figures
     assumed = (
-        f"U = {p.forward_speed_m_s:g} m/s, fin span {p.fin_span_m:g} m, "
-        f"rho = {p.water_density_kg_m3:g} kg/m^3"
+        f"{speed_text(result)}, fin span {p.fin_span_m:g} m, rho = {p.water_density_kg_m3:g} kg/m^3"
     )
     low, high = EFFICIENT_STROUHAL_RANGE
     band = "inside" if figures.strouhal_in_efficient_range else "outside"
+    over = "" if result.speed_origin == "assumed" else " (U: the mean)"
     return (
         f"swimming ({assumed}): f = {figures.beat_frequency_hz:.4f} Hz, "
         f"A = {figures.tip_excursion_m:.4f} m (tip, peak to peak), "
-        f"St = f A / U = {figures.strouhal_number:.3f} ({band} {low:g}-{high:g}), mean thrust "
-        f"(Lighthill, at the tip) = {figures.mean_thrust_n:.4g} N over {figures.beats} beats"
+        f"St = f A / U = {figures.strouhal_number:.3f}{over} ({band} {low:g}-{high:g}), "
+        f"mean thrust (Lighthill, at the tip) = {figures.mean_thrust_n:.4g} N over "
+        f"{figures.beats} beats"
     )
+
+
+def swimming_beat_lines(result: SwimmingResult) -> list[str]:
+    """Per beat: U and its source, f, A, St and thrust (when some U was recorded)."""
+    if result.speed_origin == "assumed":
+        return []
+    lines = [
+        f"{'swim':>4} {'start s':>8} {'U m/s':>7} {'U from':<13} {'freq Hz':>7} {'A m':>7} "
+        f"{'St':>6} {'thrust N':>9}"
+    ]
+    for beat in result.per_beat:
+        f = beat.figures
+        lines.append(
+            f"{beat.index:>4} {beat.start_s:>8.3f} {beat.forward_speed_m_s:>7.4f} "
+            f"{beat.speed_source:<13} {f.beat_frequency_hz:>7.4f} {f.tip_excursion_m:>7.4f} "
+            f"{f.strouhal_number:>6.3f} {f.mean_thrust_n:>9.4g}"
+        )
+    return lines
 
 
 def format_report(report: Report) -> str:
@@ -78,6 +117,7 @@ def format_report(report: Report) -> str:
             + ", ".join(f"{counts.get(int(v), 0)} {v.name}" for v in Verdict)
         )
     if report.swimming is not None:
+        lines += swimming_beat_lines(report.swimming)
         lines.append(swimming_text(report.swimming))
     lines.append("figures: " + " ".join(str(path) for path in report.figures))
     return "\n".join(lines)

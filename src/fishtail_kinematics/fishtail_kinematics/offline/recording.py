@@ -20,6 +20,8 @@ import numpy as np
 from fishtail_common.bag_reading import BagFile, describe_error, stamp_ns
 from fishtail_common.interface import (
     CARRIER_JOINT,
+    FISH_ODOM,
+    FISH_SWIMMING,
     MECHANISM_CODES,
     MOTOR_JOINT_STATE,
     TAIL_STATE,
@@ -48,6 +50,31 @@ class AnalysisError(Exception):
     """The input cannot be analysed; the message is one line for the user."""
 
 
+@dataclasses.dataclass(frozen=True)
+class RecordedFish:
+    """The fish's forward speed as recorded, on the recording's time axis (s after its origin).
+
+    ``odom_*``: every ``fish/odom`` sample's header stamp and surge u (``twist.linear.x``, body
+    frame, m/s). ``swim_*``: every ``fish/swimming`` message's window (one carrier revolution,
+    ending at its stamp, lasting 1 / ``beat_frequency_hz``) and ``mean_speed_m_s``. Either may be
+    empty. Which of them the swimming figures use:
+    :mod:`~fishtail_kinematics.offline.recorded_speed`.
+    """
+
+    odom_topic: str | None
+    odom_time_s: FloatArray
+    odom_surge_m_s: FloatArray
+    swim_topic: str | None
+    swim_start_s: FloatArray
+    swim_end_s: FloatArray
+    swim_speed_m_s: FloatArray
+
+    @property
+    def empty(self) -> bool:
+        """No fish/odom and no fish/swimming message."""
+        return self.odom_time_s.size == 0 and self.swim_end_s.size == 0
+
+
 @dataclasses.dataclass
 class Recording:
     """What was read from a bag or a CSV, as arrays in time order.
@@ -72,6 +99,10 @@ class Recording:
     periodic: bool = False  # CSV: one carrier cycle
     #: The pivot shift of each tail/state sample, m; None where none was recorded (unshifted).
     pivot_shift_m: FloatArray | None = None
+    #: The stamp (ns since the epoch) that ``time_s`` counts from (0 for a CSV).
+    origin_ns: int = 0
+    #: The fish's recorded speed (fish/odom, fish/swimming), None if the input has neither.
+    fish: RecordedFish | None = None
 
 
 def read_recording(path: str | Path, namespace: str | None = None) -> Recording:
@@ -109,6 +140,9 @@ def read_bag(path: Path, namespace: str | None = None) -> Recording:
         # Other JointState topics (tail/joint_states) are not the carrier.
         joint_topic = bag.pick(MOTOR_JOINT_STATE, namespace, any_name=False)
         report_topic = bag.pick(TAIL_SYMMETRY, namespace)
+        # Only a topic named fish/odom: a bag may hold other odometry (a robot base's, ...).
+        odom_topic = bag.pick(FISH_ODOM, namespace, any_name=False)
+        swim_topic = bag.pick(FISH_SWIMMING, namespace)
         if state_topic is None and joint_topic is None:
             where = f" in namespace {namespace!r}" if namespace is not None else ""
             raise AnalysisError(
@@ -118,11 +152,24 @@ def read_bag(path: Path, namespace: str | None = None) -> Recording:
         states: list[Any] = []
         joints: list[Any] = []
         reports: list[Any] = []
+        odoms: list[tuple[int, float]] = []  # (stamp ns, surge m/s): a whole Odometry is large
+        swims: list[tuple[int, float, float]] = []  # (stamp ns, frequency Hz, speed m/s)
         sink = {state_topic: states, joint_topic: joints, report_topic: reports}
         for connection, _, message in bag.messages(
-            bag.connections_of(state_topic, joint_topic, report_topic)
+            bag.connections_of(state_topic, joint_topic, report_topic, odom_topic, swim_topic)
         ):
-            sink[connection.topic].append(message)
+            if connection.topic == odom_topic:
+                odoms.append((stamp_ns(message), float(message.twist.twist.linear.x)))
+            elif connection.topic == swim_topic:
+                swims.append(
+                    (
+                        stamp_ns(message),
+                        float(message.beat_frequency_hz),
+                        float(message.mean_speed_m_s),
+                    )
+                )
+            else:
+                sink[connection.topic].append(message)
         description = (
             f"rosbag2 bag, {bag.file_count} file(s), {bag.message_count} messages, "
             f"{bag.duration_ns * 1e-9:.1f} s"
@@ -135,7 +182,38 @@ def read_bag(path: Path, namespace: str | None = None) -> Recording:
         raise AnalysisError(f"{path}: the bag holds no motor/joint_state message")
     recording = _recording_from_messages(path, description, states, joints)
     recording.monitor_verdicts = [int(r.verdict) for r in reports]
+    if odoms or swims:
+        recording.fish = _recorded_fish(
+            recording.origin_ns, odom_topic if odoms else None, odoms,
+            swim_topic if swims else None, swims,
+        )  # fmt: skip
     return recording
+
+
+def _recorded_fish(
+    origin_ns: int,
+    odom_topic: str | None,
+    odoms: list[tuple[int, float]],
+    swim_topic: str | None,
+    swims: list[tuple[int, float, float]],
+) -> RecordedFish:
+    """The fish's samples in stamp order, repeated stamps and non-finite values dropped."""
+    odom = sorted({stamp: surge for stamp, surge in odoms if math.isfinite(surge)}.items())
+    odom_time = np.array([(stamp - origin_ns) * 1e-9 for stamp, _ in odom])
+    odom_surge = np.array([surge for _, surge in odom])
+    beats = sorted(
+        {
+            stamp: (frequency, speed)
+            for stamp, frequency, speed in swims
+            if math.isfinite(frequency) and frequency > 0.0 and math.isfinite(speed)
+        }.items()
+    )
+    swim_end = np.array([(stamp - origin_ns) * 1e-9 for stamp, _ in beats])
+    swim_start = swim_end - np.array([1.0 / frequency for _, (frequency, _) in beats])
+    swim_speed = np.array([speed for _, (_, speed) in beats])
+    return RecordedFish(
+        odom_topic, odom_time, odom_surge, swim_topic, swim_start, swim_end, swim_speed
+    )
 
 
 def _carrier_index(names: Sequence[str]) -> int | None:
@@ -222,6 +300,7 @@ def _recording_from_messages(
         state=state,
         notes=notes,
         pivot_shift_m=pivot_shift,
+        origin_ns=int(stamps[0]),
     )
 
 

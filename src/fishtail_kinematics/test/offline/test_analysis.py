@@ -10,6 +10,7 @@ one-line error and exit status 2.
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import subprocess
 import sys
@@ -98,11 +99,17 @@ def write_bag(
     reports: int = 0,
     namespace: str = "",
     pivot_shifts: tuple[float, ...] = (),
+    fish_odom_m_s: float | None = None,
+    fish_swimming_m_s: float | None = None,
+    fish_from_s: float = 0.0,
 ) -> Path:
     """A bag like a recording of the suite at constant speed (stamps = receive times + 50 us).
 
     ``pivot_shifts``: the pivot moves through these shifts, each held for an equal share of the
-    recording (none: the unshifted tail throughout).
+    recording (none: the unshifted tail throughout). ``fish_odom_m_s``: a fish/odom sample with
+    this surge at every carrier sample from ``fish_from_s`` on; ``fish_swimming_m_s``: a
+    fish/swimming message with this mean speed at the end of every carrier revolution (as the
+    simulator publishes them).
     """
     design = make_tail(geometry_of(config))
     shifted = [design.with_pivot_shift(shift) for shift in pivot_shifts] or [design]
@@ -116,9 +123,26 @@ def write_bag(
         report_connection = add(
             f"{namespace}/tail/symmetry", "fishtail_msgs/msg/SymmetryReport", typestore=store
         )
+        if fish_odom_m_s is not None:
+            odom = add(f"{namespace}/fish/odom", "nav_msgs/msg/Odometry", typestore=store)
+        if fish_swimming_m_s is not None:
+            swimming = add(
+                f"{namespace}/fish/swimming", "fishtail_msgs/msg/SwimFigures", typestore=store
+            )
         for k in range(samples):
             stamp = T0_NS + round(k * 1e9 / RATE_HZ)
             angle = 0.3 + SPEED_RAD_S * k / RATE_HZ
+            if fish_odom_m_s is not None and k / RATE_HZ >= fish_from_s:
+                message = odometry(store, stamp, fish_odom_m_s, k / RATE_HZ)
+                writer.write(odom, stamp + 60_000, store.serialize_cdr(message, ODOMETRY))
+            revolution = math.floor(angle / (2 * math.pi))
+            previous = math.floor((angle - SPEED_RAD_S / RATE_HZ) / (2 * math.pi))
+            if fish_swimming_m_s is not None and k and revolution > previous:
+                # Stamped where the carrier passed the multiple of 2 pi, as the simulator does.
+                end_ns = T0_NS + round((2 * math.pi * revolution - 0.3) / SPEED_RAD_S * 1e9)
+                message = swim_figures(store, end_ns, revolution, fish_swimming_m_s)
+                data = store.serialize_cdr(message, "fishtail_msgs/msg/SwimFigures")
+                writer.write(swimming, stamp + 70_000, data)
             if joint_state_topic and not (drop_joint_every and k % drop_joint_every == 0):
                 message = store.types["sensor_msgs/msg/JointState"](
                     header=header(store, stamp), name=["carrier_joint"],
@@ -141,6 +165,41 @@ def write_bag(
             data = store.serialize_cdr(message, "fishtail_msgs/msg/SymmetryReport")
             writer.write(report_connection, T0_NS + 1000 + index, data)
     return path
+
+
+ODOMETRY = "nav_msgs/msg/Odometry"
+
+
+def odometry(store, stamp_ns: int, surge_m_s: float, time_s: float):
+    """The fish swimming along x at ``surge_m_s``, with the sway of a beating tail."""
+    types_ = store.types
+    vector = types_["geometry_msgs/msg/Vector3"]
+    pose = types_["geometry_msgs/msg/Pose"](
+        position=types_["geometry_msgs/msg/Point"](x=surge_m_s * time_s, y=0.0, z=0.0),
+        orientation=types_["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+    )
+    sway = 0.02 * math.sin(SPEED_RAD_S * time_s)
+    twist = types_["geometry_msgs/msg/Twist"](
+        linear=vector(x=surge_m_s, y=sway, z=0.0), angular=vector(x=0.0, y=0.0, z=0.0)
+    )
+    return types_[ODOMETRY](
+        header=header(store, stamp_ns, "odom"), child_frame_id="base_link",
+        pose=types_["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+        twist=types_["geometry_msgs/msg/TwistWithCovariance"](
+            twist=twist, covariance=np.zeros(36)
+        ),
+    )  # fmt: skip
+
+
+def swim_figures(store, stamp_ns: int, index: int, speed_m_s: float):
+    """The simulator's figures of the carrier revolution that ended at ``stamp_ns``."""
+    frequency = SPEED_RAD_S / (2 * math.pi)
+    return store.types["fishtail_msgs/msg/SwimFigures"](
+        header=header(store, stamp_ns, "odom"), beat_index=index, beat_frequency_hz=frequency,
+        mean_speed_m_s=speed_m_s, body_lengths_per_s=speed_m_s / 0.3, tip_excursion_m=0.13,
+        strouhal_number=frequency * 0.13 / speed_m_s, mean_thrust_n=0.1, mean_tail_power_w=0.1,
+        froude_efficiency=0.2, turning_radius_m=math.inf, heading_change_rad=0.0,
+    )  # fmt: skip
 
 
 def run_cli(capsys, *argv) -> tuple[int, str, str]:
@@ -517,8 +576,89 @@ def test_swimming_figures_take_the_flags_over_the_monitors_defaults(store, tmp_p
     bag = write_bag(store, tmp_path / "bag", seconds=1.0)
     status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f", "--fin-span-m", "0.2")
     assert status == 0
-    assert "swimming (U = 0.3 m/s, fin span 0.2 m, rho = 1000 kg/m^3): f = " in out
-    assert "St = f A / U = " in out
+    assert (
+        "swimming (U = 0.3 m/s assumed (forward_speed_m_s; the recording has no fish/odom or "
+        "fish/swimming), fin span 0.2 m, rho = 1000 kg/m^3): f = " in out
+    )
+    assert "St = f A / U = " in out and "U recorded" not in out
+
+
+def strouhal_of(out: str) -> float:
+    return float(re.search(r"St = f A / U = ([\d.]+)", out)[1])
+
+
+def test_swimming_figures_take_u_from_the_recorded_fish_odometry(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=3.0, fish_odom_m_s=0.12)
+    status, out, err = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0, err
+    report = analysis.analyse(bag, output_dir=tmp_path / "f")
+    swimming = report.swimming
+    assert swimming.speed_origin == "recorded" and swimming.speed_sources == ["fish/odom"]
+    assert len(swimming.per_beat) == swimming.figures.beats >= 4
+    for beat in swimming.per_beat:
+        assert beat.forward_speed_m_s == pytest.approx(0.12, rel=1e-9)
+        assert beat.figures.strouhal_number == pytest.approx(
+            beat.figures.beat_frequency_hz * beat.figures.tip_excursion_m / 0.12
+        )
+    figures = swimming.figures
+    expected = figures.beat_frequency_hz * figures.tip_excursion_m / 0.12
+    assert figures.strouhal_number == pytest.approx(expected, rel=1e-9)
+    assert expected > 1.0  # 1.9 Hz and 0.134 m at 0.12 m/s: far from the assumed 0.3 m/s's St
+    assert "swimming (U recorded per beat (fish/odom), 0.12-0.12 m/s, mean 0.12 m/s" in out
+    assert strouhal_of(out) == pytest.approx(expected, abs=1e-3)
+    assert "assumed" not in out
+    assert re.search(r"^\s+1\s+\S+\s+0\.1200 fish/odom ", out, re.MULTILINE), out
+
+    # Without the fish (or when told to), the assumed U, said so.
+    status, out, _ = run_cli(capsys, bag, "--output-dir", tmp_path / "f", "--assumed-speed-only")
+    assert status == 0
+    assert "swimming (U = 0.3 m/s assumed (forward_speed_m_s; the recorded fish's speed not " in out
+    assert strouhal_of(out) == pytest.approx(expected * 0.12 / 0.3, abs=1e-3)
+    plain = write_bag(store, tmp_path / "plain", seconds=3.0)
+    status, out, _ = run_cli(capsys, plain, "--output-dir", tmp_path / "f")
+    assert status == 0
+    assert "swimming (U = 0.3 m/s assumed (forward_speed_m_s; the recording has no fish" in out
+    assert "U recorded" not in out
+    assert analysis.analyse(plain, output_dir=tmp_path / "f").swimming.speed_origin == "assumed"
+
+
+def test_swimming_figures_take_u_from_fish_swimming_matched_to_the_beats(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=3.0, fish_swimming_m_s=0.15)
+    status, out, err = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0, err
+    report = analysis.analyse(bag, output_dir=tmp_path / "f")
+    swimming, reported_until = report.swimming, report.recording.fish.swim_end_s[-1]
+    assert swimming.speed_sources == ["fish/swimming"]
+    # A tail beat (fin angle's zero crossings) and a reported carrier revolution last as long but
+    # are out of phase: a beat is covered by the two revolutions it overlaps, and a beat that
+    # ends after the last reported revolution has no recorded speed.
+    assert sum(beat.end_s <= reported_until for beat in swimming.per_beat) >= 3
+    for beat in swimming.per_beat:
+        if beat.end_s <= reported_until:
+            assert beat.speed_source == "fish/swimming", beat
+            assert beat.forward_speed_m_s == pytest.approx(0.15, rel=1e-9)
+        else:
+            assert beat.speed_source == "assumed", beat
+    assert "U recorded per beat (fish/swimming)" in out
+
+
+def test_beats_outside_the_fish_recording_use_the_assumed_speed(store, tmp_path, capsys):
+    bag = write_bag(store, tmp_path / "bag", seconds=3.0, fish_odom_m_s=0.12, fish_from_s=1.5)
+    status, out, err = run_cli(capsys, bag, "--output-dir", tmp_path / "f")
+    assert status == 0, err
+    swimming = analysis.analyse(bag, output_dir=tmp_path / "f").swimming
+    assert swimming.speed_origin == "partly recorded"
+    for beat in swimming.per_beat:
+        recorded = beat.start_s >= 1.5
+        assert beat.speed_source == ("fish/odom" if recorded else "assumed"), beat
+        assert beat.forward_speed_m_s == pytest.approx(0.12 if recorded else 0.3)
+    durations = [b.end_s - b.start_s for b in swimming.per_beat]
+    mean = np.dot(durations, [b.forward_speed_m_s for b in swimming.per_beat]) / sum(durations)
+    assert swimming.parameters.forward_speed_m_s == pytest.approx(mean)
+    assert (
+        f"recorded for {swimming.recorded_beats} of {len(swimming.per_beat)} beats, 0.3 m/s "
+        "assumed (forward_speed_m_s) for the others" in out
+    )
 
 
 def test_default_output_dir_is_named_after_the_input(store, tmp_path, capsys, monkeypatch):
