@@ -8,9 +8,7 @@ The view's subscriptions are watched from the probe: none while nobody looks.
 
 from __future__ import annotations
 
-import base64
 import io
-import json
 import math
 import os
 import shutil
@@ -24,12 +22,14 @@ import pytest
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 
+from fishtail_bringup.view_browser import Chromium, find_chromium, viewer_newest_s
 from fishtail_bringup.view_rerun import free_port
 from fishtail_common.bag_types import suite_typestore
 from fishtail_common.interface import (
     FISH_ODOM,
     GOAL_POSE,
     SUITE_NODES,
+    SWIM_NODE,
     TAIL_MARKERS,
     TAIL_STATE,
     TAIL_SYMMETRY,
@@ -211,80 +211,6 @@ def test_a_client_that_leaves_and_a_suite_that_stops_leave_the_view_running(
 # ---- the web viewer in headless Chromium
 
 
-class Chromium:
-    """Headless Chromium driven over its DevTools pipe (no extra packages)."""
-
-    def __init__(self, executable: str, log_path: Path) -> None:
-        """Start it with a blank page; nothing it loads may leave this machine."""
-        ours_read, theirs_write = os.pipe()
-        theirs_read, ours_write = os.pipe()
-
-        def pipes_on_3_and_4() -> None:  # the DevTools pipe's fixed descriptors
-            read, write = os.dup(theirs_read), os.dup(theirs_write)
-            os.dup2(read, 3)
-            os.dup2(write, 4)
-
-        argv = [
-            executable, "--headless=new", "--no-sandbox", "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader", "--window-size=1280,800", "--remote-debugging-pipe",
-            "--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1", "--no-first-run",
-            f"--user-data-dir={log_path.parent / 'chromium-profile'}", "about:blank",
-        ]  # fmt: skip
-        with open(log_path, "wb") as log:
-            self.process = subprocess.Popen(
-                argv, stdin=subprocess.DEVNULL, stdout=log, stderr=log, close_fds=False,
-                preexec_fn=pipes_on_3_and_4, start_new_session=True,
-            )  # fmt: skip
-        for descriptor in (theirs_read, theirs_write):
-            os.close(descriptor)
-        self._read, self._write = ours_read, ours_write
-        self._buffer = b""
-        self._next_id = 0
-        self.session: str | None = None
-
-    def call(self, method: str, params: dict | None = None, timeout: float = 30.0) -> dict:
-        """One DevTools command; its result."""
-        self._next_id += 1
-        request = {"id": self._next_id, "method": method, "params": params or {}}
-        if self.session is not None:
-            request["sessionId"] = self.session
-        os.write(self._write, json.dumps(request).encode() + b"\0")
-        deadline = time.monotonic() + timeout
-        while True:
-            while b"\0" in self._buffer:
-                raw, self._buffer = self._buffer.split(b"\0", 1)
-                message = json.loads(raw)
-                if message.get("id") == self._next_id:
-                    assert "error" not in message, message
-                    return message["result"]
-            assert time.monotonic() < deadline, f"no answer to {method}"
-            chunk = os.read(self._read, 1 << 20)
-            assert chunk, "Chromium closed its DevTools pipe"
-            self._buffer += chunk
-
-    def open(self, url: str) -> None:
-        """A tab at ``url``, to which later calls go."""
-        target = self.call("Target.createTarget", {"url": url})["targetId"]
-        self.session = self.call("Target.attachToTarget", {"targetId": target, "flatten": True})[
-            "sessionId"
-        ]
-
-    def screenshot(self) -> bytes:
-        """The tab as PNG."""
-        return base64.b64decode(self.call("Page.captureScreenshot", {"format": "png"})["data"])
-
-    def close(self) -> None:
-        """End the browser."""
-        os.close(self._write)
-        os.close(self._read)
-        self.process.terminate()
-        try:
-            self.process.wait(10)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.process.pid, 9)
-            self.process.wait()
-
-
 def pixels_near(png: bytes, rgb: tuple[int, int, int], tolerance: int = 40) -> int:
     """How many pixels of the PNG are within ``tolerance`` of ``rgb`` in every channel."""
     from PIL import Image
@@ -296,7 +222,7 @@ def pixels_near(png: bytes, rgb: tuple[int, int, int], tolerance: int = 40) -> i
 def test_the_web_viewer_in_headless_chromium_shows_the_linkage(
     ros, start_node, start_process, rerun_settings, config_dir, tmp_path
 ):
-    executable = shutil.which("chromium") or shutil.which("chromium-browser")
+    executable = find_chromium()
     if executable is None:
         pytest.skip("no chromium on PATH (Debian: apt-get install chromium)")
     suite(start_node, ros, config_dir)
@@ -317,6 +243,72 @@ def test_the_web_viewer_in_headless_chromium_shows_the_linkage(
         browser.close()
     assert view.returncode is None
     print(f"screenshot: {shot}")
+
+
+#: The product requirement: what the browser shows is at most this old.
+LATENCY_LIMIT_S = 2.0
+#: How long the browser watches, and how often it reads what the page has.
+WATCH_S = 60.0
+READ_PERIOD_S = 1.0
+#: How long the page may take to load and catch up before the minute starts.
+CATCH_UP_S = 120.0
+
+
+@pytest.mark.slow
+def test_the_web_viewer_in_headless_chromium_keeps_up_with_the_suite(
+    ros, start_node, start_process, rerun_settings, config_dir, tmp_path
+):
+    """For a minute, what the page's viewer has taken in is at most LATENCY_LIMIT_S old.
+
+    Read from the viewer's own state (view_browser.viewer_newest_s): the newest time on the
+    ``time`` time line, the stamps of what the view sent, against the clock when it is read.
+    """
+    executable = find_chromium()
+    if executable is None:
+        pytest.skip("no chromium on PATH (Debian: apt-get install chromium)")
+    suite(start_node, ros, config_dir)
+    swim = start_process("sim", [sys.executable, "-m", SWIM_NODE.module, "--ros-args",
+                                 "--params-file", str(config_dir / "oscillatory.yaml"),
+                                 "--params-file", str(config_dir / "fish.yaml")])  # fmt: skip
+    view, _, web_url = start_view(start_process, ros)
+    browser = Chromium(executable, tmp_path / "chromium.log")
+    lags: list[tuple[float, float]] = []
+    try:
+        browser.open(web_url)
+        ros.wait_for_subscribers(TAIL_MARKERS.name, 1, timeout=60.0)  # the page connected
+        # First it loads (tens of MB of WebAssembly) and takes in what it was sent on
+        # connecting; the minute starts once it is within the limit.
+        waiting: list[float | None] = []
+        deadline = time.monotonic() + CATCH_UP_S
+        while time.monotonic() < deadline:
+            ros.spin_for(READ_PERIOD_S)
+            newest = viewer_newest_s(browser)
+            waiting.append(None if newest is None else round(time.time() - newest, 1))
+            if waiting[-1] is not None and waiting[-1] < LATENCY_LIMIT_S:
+                break
+        else:
+            pytest.fail(
+                f"the page never came within {LATENCY_LIMIT_S:g} s of now in {CATCH_UP_S:g} s "
+                f"(load average {os.getloadavg()[0]:.1f}); its lag each second: {waiting}"
+            )
+        began = time.monotonic()
+        while time.monotonic() - began < WATCH_S:
+            ros.spin_for(READ_PERIOD_S)
+            newest = viewer_newest_s(browser)
+            lags.append((time.monotonic() - began, time.time() - newest))
+        (tmp_path / "web_viewer_latency.png").write_bytes(browser.screenshot())
+    finally:
+        browser.close()
+    values = np.array([lag for _, lag in lags])
+    print(
+        f"web viewer latency over {WATCH_S:g} s ({len(values)} reads, load average "
+        f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores): median {np.median(values):.2f} s, "
+        f"95th percentile {np.percentile(values, 95):.2f} s, max {values.max():.2f} s"
+    )
+    print(view.stdout().splitlines()[-1] if view.stdout() else "")
+    worst_at, worst = max(lags, key=lambda pair: pair[1])
+    assert worst < LATENCY_LIMIT_S, f"{worst:.2f} s behind at {worst_at:.0f} s: {lags}"
+    assert swim.returncode is None and view.returncode is None
 
 
 # ---- a recorded bag

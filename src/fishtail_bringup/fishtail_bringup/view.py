@@ -10,6 +10,7 @@ view without ROS tools").
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import sys
 import threading
@@ -18,13 +19,22 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from fishtail_bringup.view_rerun import DEFAULT_GRPC_PORT, DEFAULT_WEB_PORT, RerunView
+from fishtail_bringup.view_pacing import LatencyWatch, Lateness, RateLimit
+from fishtail_bringup.view_rerun import (
+    DEFAULT_GRPC_PORT,
+    DEFAULT_SEND_PERIOD_S,
+    DEFAULT_WEB_PORT,
+    RerunView,
+)
 from fishtail_bringup.view_scene import (
+    DELETE,
+    DELETEALL,
     FISH_ROOT,
     TAIL_ROOT,
     TailPlots,
     goal_primitives,
     marker_primitives,
+    stamp_seconds,
     symmetry_primitives,
 )
 from fishtail_common.command_line import DURATION, add_parameter_options
@@ -56,6 +66,48 @@ PORT = ParameterSpec(
 WEB_PORT = ParameterSpec(
     "web_port", DEFAULT_WEB_PORT, "web viewer (HTTP) port, 0 = any free", "", 0, MAX_PORT
 )
+#: What the live view sends: each stream decimated, late messages dropped, its latency watched
+#: (fishtail_bringup.view_pacing; docs/visualisation.md, "Keeping up").
+MARKERS_RATE = ParameterSpec(
+    "markers_rate_hz", 15.0, "marker arrays drawn per second, per topic, 0 = all", "Hz", 0.0, 1000.0
+)
+PLOT_RATE = ParameterSpec(
+    "plot_rate_hz", 50.0, "tail/state samples plotted per second, 0 = all", "Hz", 0.0, 1000.0
+)
+SEND_PERIOD = ParameterSpec(
+    "send_period_s", DEFAULT_SEND_PERIOD_S, "period of the batches sent to the viewers", "s",
+    0.01, 2.0,
+)  # fmt: skip
+DROP_LATE = ParameterSpec(
+    "drop_late_s", 1.0, "drop messages that arrive this much later than usual, 0 = never", "s",
+    0.0, 60.0,
+)  # fmt: skip
+LATENCY_WARNING = ParameterSpec(
+    "latency_warning_s", 1.0, "say so when what is sent is older than this, 0 = never", "s",
+    0.0, 60.0,
+)  # fmt: skip
+PACING_OPTIONS = (MARKERS_RATE, PLOT_RATE, SEND_PERIOD, DROP_LATE, LATENCY_WARNING)
+
+
+@dataclasses.dataclass(frozen=True)
+class Pacing:
+    """How the live view paces what it sends (the PACING_OPTIONS' values)."""
+
+    markers_rate_hz: float = MARKERS_RATE.default  # type: ignore[assignment]
+    plot_rate_hz: float = PLOT_RATE.default  # type: ignore[assignment]
+    drop_late_s: float = DROP_LATE.default  # type: ignore[assignment]
+    latency_warning_s: float = LATENCY_WARNING.default  # type: ignore[assignment]
+
+
+def _array_stamp(array) -> tuple[float | None, bool]:
+    """A MarkerArray's first stamp (None if none) and whether it deletes anything."""
+    stamp = None
+    deletes = False
+    for marker in array.markers:
+        if stamp is None and (marker.header.stamp.sec or marker.header.stamp.nanosec):
+            stamp = stamp_seconds(marker.header)
+        deletes = deletes or int(marker.action) in (DELETE, DELETEALL)
+    return stamp, deletes
 
 
 def _say(text: str) -> None:
@@ -69,7 +121,13 @@ def _error(text: str) -> None:
 class ViewNode:
     """The live view's ROS side: subscriptions that follow the viewers, into a RerunView."""
 
-    def __init__(self, view: RerunView, namespace: str = "", say: Callable[[str], None] = _say):
+    def __init__(
+        self,
+        view: RerunView,
+        namespace: str = "",
+        say: Callable[[str], None] = _say,
+        pacing: Pacing = Pacing(),
+    ):
         """Create the node (``namespace`` moves it with the suite) and its timers."""
         import rclpy
         from geometry_msgs.msg import PoseStamped
@@ -79,7 +137,13 @@ class ViewNode:
         self.view = view
         self.say = say
         self.node = rclpy.create_node("view", namespace=namespace or None)
-        self.plots = TailPlots()
+        self.pacing = pacing
+        self.plots = TailPlots(pacing.plot_rate_hz)
+        self.limits: dict[str, RateLimit] = {}
+        self.lateness = Lateness(pacing.drop_late_s)
+        self.latency = LatencyWatch(pacing.latency_warning_s)
+        self.decimated = 0
+        self._newest_sent: float | None = None
         self.subscriptions: list = []
         self.viewers = 0
         self.goal = None
@@ -116,9 +180,9 @@ class ViewNode:
 
         node = self.node
         table = (
-            (MarkerArray, TAIL_MARKERS, lambda m: self._log(*marker_primitives(m, TAIL_ROOT))),
-            (MarkerArray, FISH_MARKERS, lambda m: self._log(*marker_primitives(m, FISH_ROOT))),
-            (TailState, TAIL_STATE, self.plots.add),
+            (MarkerArray, TAIL_MARKERS, lambda m: self._on_markers(m, TAIL_ROOT)),
+            (MarkerArray, FISH_MARKERS, lambda m: self._on_markers(m, FISH_ROOT)),
+            (TailState, TAIL_STATE, self._on_state),
             (SymmetryReport, TAIL_SYMMETRY, lambda m: self._log(*symmetry_primitives(m))),
         )
         self.subscriptions = [
@@ -140,9 +204,47 @@ class ViewNode:
 
     def _log(self, stamp_s: float | None, primitives: list) -> None:
         self.logged += self.view.log(stamp_s, primitives)
+        if stamp_s is not None and primitives:
+            self._newest_sent = max(stamp_s, self._newest_sent or stamp_s)
+
+    def _on_markers(self, array, root: str) -> None:
+        """A marker array, unless it is late or its topic's rate is reached (deletions pass)."""
+        stamp, deletes = _array_stamp(array)
+        if stamp is not None and not deletes:
+            if self.lateness.late(stamp, time.time()):
+                return
+            limit = self.limits.setdefault(root, RateLimit(self.pacing.markers_rate_hz))
+            if not limit.admit(stamp):
+                self.decimated += 1
+                return
+        self._log(*marker_primitives(array, root))
+
+    def _on_state(self, state) -> None:
+        if not self.lateness.late(stamp_seconds(state.header), time.time()):
+            if not self.plots.add(state):
+                self.decimated += 1
 
     def _flush_plots(self) -> None:
+        """Send the gathered samples; the latency of what went out since the last flush."""
         self._log(None, self.plots.flush())
+        newest = max((s for s in (self.plots.newest_s, self._newest_sent) if s is not None),
+                     default=None)  # fmt: skip
+        self.plots.newest_s = self._newest_sent = None
+        if newest is None:
+            return
+        now = time.time()
+        latency = now - newest
+        note = self.latency.update(latency, now)
+        if note is not None:
+            self.say(note)
+        self.view.log_latency(newest, latency, note)
+
+    def summary(self) -> str:
+        """What was logged and what was not."""
+        return (
+            f"{self.logged} primitives logged; {self.decimated} messages decimated, "
+            f"{self.lateness.dropped} dropped as late"
+        )
 
     def _on_goal(self, message) -> None:
         self.goal = message
@@ -176,6 +278,7 @@ def build_parser() -> argparse.ArgumentParser:
         "0.0.0.0: every interface)",
     )
     add_parameter_options(parser, [PORT, WEB_PORT])
+    add_parameter_options(parser.add_argument_group("what is sent (live)"), PACING_OPTIONS)
     add(
         "--no-web",
         action="store_true",
@@ -189,13 +292,20 @@ def open_view(arguments: argparse.Namespace) -> RerunView:
     """Start serving; a taken default port falls back to a free one (said), a chosen one fails."""
     web_port = None if arguments.no_web else arguments.web_port
     try:
-        return RerunView(arguments.bind, arguments.port, web_port)
+        return RerunView(
+            arguments.bind, arguments.port, web_port, send_period_s=arguments.send_period_s
+        )
     except OSError as error:
         defaults = arguments.port == DEFAULT_GRPC_PORT and web_port in (None, DEFAULT_WEB_PORT)
         if not defaults:
             raise
         _say(f"{error.strerror or error}: using free ports instead")
-        return RerunView(arguments.bind, 0, None if web_port is None else 0)
+        return RerunView(
+            arguments.bind,
+            0,
+            None if web_port is None else 0,
+            send_period_s=arguments.send_period_s,
+        )
 
 
 def where_to_look(view: RerunView) -> str:
@@ -282,7 +392,13 @@ def main(argv: list[str] | None = None) -> int:
         if arguments.bag is not None:
             return replay_bag(arguments, view, stop)
         rclpy.init(args=full_argv, signal_handler_options=SignalHandlerOptions.NO)
-        live = ViewNode(view, arguments.namespace)
+        pacing = Pacing(
+            arguments.markers_rate_hz,
+            arguments.plot_rate_hz,
+            arguments.drop_late_s,
+            arguments.latency_warning_s,
+        )
+        live = ViewNode(view, arguments.namespace, pacing=pacing)
         if arguments.duration:
             timer = threading.Timer(arguments.duration, stop.set)
             timer.daemon = True
@@ -292,7 +408,7 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             live.node.destroy_node()
             rclpy.try_shutdown()
-        _say(f"stopped: {live.logged} primitives logged")
+        _say(f"stopped: {live.summary()}")
         return 0
     finally:
         view.close()

@@ -38,14 +38,22 @@ DEFAULT_GRPC_PORT = 9876
 DEFAULT_WEB_PORT = 9090
 #: The timeline every primitive is placed on: the messages' stamps.
 TIMELINE = "time"
-#: What the gRPC server keeps for viewers that connect later (oldest dropped beyond it).
-SERVER_MEMORY_LIMIT = "256MiB"
+#: What the gRPC server keeps for viewers that connect later (oldest dropped beyond it). Small:
+#: a browser that connects takes in the whole history before it shows now.
+SERVER_MEMORY_LIMIT = "32MiB"
+#: How often the SDK hands what was logged to the server, in batches (one chunk per entity per
+#: batch; the web viewer's cost is mostly per chunk). Rerun's own default is 0.2 s.
+DEFAULT_SEND_PERIOD_S = 0.2
+#: The view's own latency (send time minus the newest sent stamp, s) and its warnings.
+LATENCY_PLOT = "view/latency"
+VIEW_NOTES = "view/notes"
 #: Seconds of the scrolling plots.
 PLOT_WINDOW_S = 10.0
 PLOT_COLOURS = {
     THETA3_PLOT: ("θ3", (51, 204, 102)),
     THETA5_PLOT: ("θ5", (230, 120, 40)),
     CARRIER_SPEED_PLOT: ("carrier speed", (64, 140, 242)),
+    LATENCY_PLOT: ("view latency", (230, 200, 60)),
 }
 
 
@@ -95,8 +103,15 @@ def blueprint() -> Any:
                 rrb.TimeSeriesView(
                     origin="plots/carrier", name="carrier speed [rad/s]", time_ranges=scrolling
                 ),
-                rrb.TextLogView(origin=SYMMETRY_LOG, name="symmetry verdicts"),
-                row_shares=[2, 2, 1],
+                rrb.TimeSeriesView(
+                    origin=LATENCY_PLOT, name="view latency [s]", time_ranges=scrolling
+                ),
+                rrb.TextLogView(
+                    origin="/",
+                    contents=[f"+ /{SYMMETRY_LOG}", f"+ /{VIEW_NOTES}"],
+                    name="symmetry verdicts, view notes",
+                ),
+                row_shares=[2, 2, 1, 1],
             ),
             column_shares=[3, 2],
         ),
@@ -113,10 +128,12 @@ class RerunView:
         grpc_port: int = DEFAULT_GRPC_PORT,
         web_port: int | None = DEFAULT_WEB_PORT,
         memory_limit: str = SERVER_MEMORY_LIMIT,
+        send_period_s: float = DEFAULT_SEND_PERIOD_S,
     ) -> None:
         """Serve the data on ``bind:grpc_port``, the web viewer on ``web_port`` (None: none).
 
-        A port of 0 is any free one.
+        A port of 0 is any free one. What is logged goes to the server every ``send_period_s``;
+        a viewer that connects gets what is logged from then on first, the history after it.
 
         Raises:
             OSError: a port is taken.
@@ -129,11 +146,14 @@ class RerunView:
             if port and not port_is_free("" if bind == "0.0.0.0" else bind, port):
                 raise OSError(errno.EADDRINUSE, f"port {port} is in use")
         self.grpc_port = grpc_port or free_port(bind)
-        self.recording = rr.RecordingStream(APPLICATION_ID)
-        self.recording.set_sinks(
-            rr.GrpcServerSink(bind_ip=bind, port=self.grpc_port, server_memory_limit=memory_limit),
-            default_blueprint=blueprint(),
+        self.recording = rr.RecordingStream(
+            APPLICATION_ID, batcher_config=rr.ChunkBatcherConfig(flush_tick=send_period_s)
         )
+        self.recording.set_sinks(
+            rr.GrpcServerSink(bind_ip=bind, port=self.grpc_port, server_memory_limit=memory_limit,
+                              newest_first=True),
+            default_blueprint=blueprint(),
+        )  # fmt: skip
         host = "127.0.0.1" if bind in ("0.0.0.0", "::") else bind
         self.grpc_url = f"rerun+http://{host}:{self.grpc_port}/proxy"
         self.web_url: str | None = None
@@ -244,6 +264,15 @@ class RerunView:
             elif isinstance(primitive, Clear):
                 rr.log(primitive.entity, rr.Clear(recursive=True), recording=recording)
         return count
+
+    def log_latency(self, stamp_s: float, latency_s: float, note: str | None = None) -> None:
+        """The view's latency at ``stamp_s`` (a point of the "view latency" plot), and a note."""
+        rr = self.rr
+        rr.set_time(TIMELINE, timestamp=stamp_s, recording=self.recording)
+        rr.log(LATENCY_PLOT, rr.Scalars(latency_s), recording=self.recording)
+        if note is not None:
+            level = "WARN" if note.startswith("behind") else "INFO"
+            rr.log(VIEW_NOTES, rr.TextLog(note, level=level), recording=self.recording)
 
     def flush(self) -> None:
         """Hand everything logged so far to the server."""

@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_bringup.console import VERDICT_NAMES, verdict_text
+from fishtail_bringup.view_pacing import RateLimit
 
 FloatArray = npt.NDArray[np.float64]
 Colour = tuple[float, float, float, float]  # RGBA, 0..1 as in std_msgs/ColorRGBA
@@ -185,23 +186,31 @@ def marker_primitives(array: Any, root: str) -> tuple[float | None, list[Primiti
 class TailPlots:
     """tail/state samples gathered for the plots: theta3 (theta5) in degrees, carrier speed.
 
-    :meth:`add` keeps three floats per message; :meth:`flush` hands them over as
-    :class:`Series` (one send per quantity, not one per sample).
+    :meth:`add` keeps three floats per message, at most ``rate_hz`` messages a second by their
+    stamps (0: all; :class:`~fishtail_bringup.view_pacing.RateLimit`); :meth:`flush` hands them
+    over as :class:`Series` (one send per quantity, not one per sample).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, rate_hz: float = 0.0) -> None:
         """Start empty."""
+        self.limit = RateLimit(rate_hz)
+        #: The stamp of the newest sample handed over by :meth:`flush` (None before any).
+        self.newest_s: float | None = None
         self._times: list[float] = []
         self._theta3: list[float] = []
         self._theta5: list[float] = []
         self._speed: list[float] = []
 
-    def add(self, state: Any) -> None:
-        """Keep one fishtail_msgs/TailState's plotted values."""
-        self._times.append(stamp_seconds(state.header))
+    def add(self, state: Any) -> bool:
+        """Keep one fishtail_msgs/TailState's plotted values, unless the rate is reached."""
+        stamp = stamp_seconds(state.header)
+        if not self.limit.admit(stamp):
+            return False
+        self._times.append(stamp)
         self._theta3.append(math.degrees(state.theta3))
         self._theta5.append(math.degrees(state.theta5))  # NaN for mechanism 1
         self._speed.append(float(state.motor_velocity))
+        return True
 
     def __len__(self) -> int:
         """Samples waiting for :meth:`flush`."""
@@ -212,6 +221,7 @@ class TailPlots:
         if not self._times:
             return []
         times = np.array(self._times)
+        self.newest_s = float(times.max())
         theta5 = np.array(self._theta5)
         series: list[Primitive] = [
             Series(THETA3_PLOT, times, np.array(self._theta3)),
