@@ -42,7 +42,7 @@ from fishtail_common.ros import (
     subscriber_qos,
     suite_publisher,
 )
-from fishtail_common.stream_timing import RateCheck
+from fishtail_common.stream_timing import PersistentStatus, RateCheck
 from fishtail_driver.backends import StopOutcome
 from fishtail_driver.parameters import (
     DRIVER_PARAMETERS,
@@ -123,6 +123,9 @@ class DriverNode(SuiteNodeBase):
             float(values["rate_warn_fraction"]),
             float(values["gap_warn_sec"]),
         )
+        # A shortfall WARNs once it persists and clears once gone a while (no flapping).
+        self.rate_status = PersistentStatus()
+        self.diagnostics_period_s = float(values["diagnostics_period_sec"])
 
         self.state_message = JointState()
         self.state_message.name = [str(values["joint_name"])]
@@ -333,10 +336,13 @@ class DriverNode(SuiteNodeBase):
         if refusal is not None:
             level = max(level, Level.WARN)
             text = f"{text}; {refusal}"
-        rate = self.rate_check.report(time.monotonic(), self.expected_rate_hz())
-        if rate.shortfall is not None:
+        rate = self.rate_check.report(
+            time.monotonic(), self.expected_rate_hz(), self.rate_status.warning
+        )
+        if self.rate_status.update(self.diagnostics_period_s, rate.shortfall, rate.longest_gap_s):
             level = max(level, Level.WARN)
-            text = f"{text}; motor/joint_state: {rate.shortfall}"
+            shortfall = rate.shortfall or f"recovering from: {self.rate_status.last_problem}"
+            text = f"{text}; motor/joint_state: {shortfall}"
         values = {
             **values,
             "backend": self.backend.name,

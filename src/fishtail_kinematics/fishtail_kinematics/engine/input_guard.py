@@ -18,7 +18,7 @@ from collections.abc import Mapping
 
 from fishtail_common.interface import CARRIER_JOINT, MOTOR_JOINT_STATE, Level
 from fishtail_common.parameters import ParameterSpec, ParameterValue
-from fishtail_common.stream_timing import PeriodTiming
+from fishtail_common.stream_timing import PeriodTiming, PersistentStatus
 from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
 
 #: Largest plausible |carrier angle| [rad] (docs/kinematics.md: why 1e9).
@@ -299,22 +299,47 @@ def drops_text(topic: str, counts: Mapping[str, int], period_s: float) -> str:
 
 
 def input_status(
-    topic: str, drops: DropCounts, timing: PeriodTiming, period_s: float
+    topic: str,
+    drops: DropCounts,
+    timing: PeriodTiming,
+    period_s: float,
+    persistence: PersistentStatus | None = None,
 ) -> tuple[Level, str, dict[str, str]]:
     """Level (OK or WARN), message and values of an input stream over one period.
 
-    WARN when samples were dropped, or the stream had gaps or a low rate
-    (:mod:`fishtail_common.stream_timing`); the message names each problem, the values carry the
-    counts per reason, the measured rate, the usual interval and the longest interval of the
-    period.
+    WARN when samples were dropped (at once: a corrupt sample is a fault, not load), or the
+    stream had gaps or a low rate (:mod:`fishtail_common.stream_timing`); with ``persistence``
+    (the node's one :class:`PersistentStatus` for this stream) gaps and rate WARN only once they
+    persist and stay WARN until they have cleared for a while, the message saying which. The
+    message names each problem, the values carry the counts per reason, the measured rate, the
+    usual interval and the longest interval of the period.
     """
     counts = drops.take_period()
     problems = []
     if counts:
         problems.append(drops_text(topic, counts, period_s))
-    if not timing.healthy:
-        problems.append(timing.describe(topic))
+    warning = persistence is not None and persistence.warning
+    timing_problem = None if timing.healthy_for(warning) else timing.describe(topic)
     values = {**drops.values(), **timing.values()}
+    if persistence is None:
+        if timing_problem is not None:
+            problems.append(timing_problem)
+    else:
+        # A gap that ended in this period counts its whole length (one long outage is enough).
+        lasted = timing.longest_interval_s if timing.status_gaps else 0.0
+        warning = persistence.update(period_s, timing_problem, lasted)
+        if warning:
+            problems.append(
+                timing_problem
+                or f"{timing.describe(topic)}, recovering from: {persistence.last_problem} "
+                f"(OK once clear for {persistence.clear_after_s:g} s)"
+            )
+        elif timing_problem is not None and not problems:
+            return (
+                Level.OK,
+                (f"{timing_problem} (WARN if it lasts {persistence.warn_after_s:g} s)"),
+                values,
+            )
     if problems:
         return Level.WARN, "; ".join(problems), values
     return Level.OK, timing.describe(topic), values

@@ -47,7 +47,7 @@ from fishtail_common.ros import (
     subscriber_qos,
     suite_publisher,
 )
-from fishtail_common.stream_timing import StreamTiming
+from fishtail_common.stream_timing import PersistentStatus, StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.geometry import (
     GEOMETRY_PARAMETERS,
@@ -137,6 +137,8 @@ class KinematicsNode(SuiteNodeBase):
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
         self.timing = StreamTiming()
+        # Gaps and rate WARN once they persist, OK once cleared (no flapping).
+        self.timing_status = PersistentStatus()
         self.last_input_ns: int | None = None
 
         self.joint_states = JointState()
@@ -344,7 +346,11 @@ class KinematicsNode(SuiteNodeBase):
     def _on_diagnostics(self) -> None:
         now_ns = self.get_clock().now().nanoseconds
         level, text, input_values = input_status(
-            INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
+            INPUT_TOPIC,
+            self.drops,
+            self.timing.take_period(),
+            DIAGNOSTICS_PERIOD_S,
+            self.timing_status,
         )
         if (
             self.last_input_ns is None

@@ -40,7 +40,7 @@ from fishtail_common.ros import (
     subscriber_qos,
     suite_publisher,
 )
-from fishtail_common.stream_timing import StreamTiming
+from fishtail_common.stream_timing import PersistentStatus, StreamTiming
 from fishtail_kinematics.engine.input_guard import (
     GUARD_PARAMETERS,
     GUARD_REASONS,
@@ -125,6 +125,8 @@ class MonitorNode(SuiteNodeBase):
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
         self.timing = StreamTiming()
+        # Gaps and rate WARN once they persist, OK once cleared (no flapping).
+        self.timing_status = PersistentStatus()
         self.frame_id = ""
         self.last_beat: BeatStatistics | None = None
         self.last_beat_reason = ""  # why the latest beat was not judged, if it was not
@@ -356,7 +358,11 @@ class MonitorNode(SuiteNodeBase):
                 forward_speed_source=source,
             )
         input_level, input_text, input_values = input_status(
-            INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
+            INPUT_TOPIC,
+            self.drops,
+            self.timing.take_period(),
+            DIAGNOSTICS_PERIOD_S,
+            self.timing_status,
         )
         if stale:
             input_level, input_text = Level.STALE, f"no {INPUT_TOPIC} received recently"
