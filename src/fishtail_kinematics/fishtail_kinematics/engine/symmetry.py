@@ -33,6 +33,15 @@ from fishtail_common.stream_timing import StreamTiming
 DEFAULT_HYSTERESIS_RAD = 0.01
 #: Default interval without samples after which the beat in progress is forgotten [s].
 DEFAULT_GAP_RESET_S = 0.5
+#: How a gap inside a beat bounds the beat's figures (judge_with_gaps; docs/kinematics.md, "Beats
+#: with a gap"): theta3 over a beat is a smooth swing whose curvature per rad^2 of the beat's phase
+#: (2 pi a beat) is at most this times the amplitude (a sine's is 1; the report's linkage 0.91) ...
+CURVATURE_FACTOR = 2.0
+#: ... whose slope where it crosses zero is at least this times the amplitude per rad (a sine's 1,
+#: the report's linkage 1.08) ...
+CROSSING_SLOPE_FACTOR = 0.5
+#: ... and a gap longer than this share of the beat may hide more than that model allows.
+MAX_GAP_SHARE = 0.125
 
 
 class Verdict(enum.IntEnum):
@@ -117,6 +126,10 @@ class BeatStatistics:
     #: Longest interval between samples inside the beat that the caller marked as a gap; 0 if
     #: none.
     gap_s: float = 0.0
+    #: All the beat's intervals the caller marked as gaps, summed [s]; 0 if none.
+    gap_total_s: float = 0.0
+    #: How many of those gaps theta3 changed sign across (a zero crossing inside them).
+    gap_crossings: int = 0
 
     @property
     def period_s(self) -> float:
@@ -144,21 +157,76 @@ class BeatStatistics:
         return 0.5 * (self.positive_time_share - self.negative_time_share)
 
 
+@dataclasses.dataclass(frozen=True)
+class GapBounds:
+    """How far a beat's gaps may have moved its figures (linear interpolation across them)."""
+
+    #: Each peak, and so the peak asymmetry [rad].
+    peak_rad: float
+    #: The mean angle [rad].
+    mean_angle_rad: float
+    #: The time-share imbalance.
+    time_share: float
+
+
+def gap_bounds(beat: BeatStatistics) -> GapBounds | None:
+    """Bounds on the error the beat's gaps can cause, or None if they are too long to bound.
+
+    Across a gap the tracker joins the samples on either side by a straight line. With theta3's
+    curvature at most K = CURVATURE_FACTOR x amplitude per rad^2 of phase and a gap of phase width
+    d = 2 pi gap / period, the line is off by at most K d^2 / 8 inside the gap: a peak that fell
+    in it is at most that much higher than the samples show. The integral over the gap is off by
+    at most K d^3 / 12, so the mean (the integral over 2 pi) by K d_max^2 D / (24 pi) for gaps
+    of total phase width D. A zero crossing in a gap moves by at most (K d^2 / 8) / the slope
+    there (>= CROSSING_SLOPE_FACTOR x amplitude), and each crossing inside a gap moves the share
+    by that over 2 pi. The peaks' bound does not use where the gap is. Beats without a gap: all
+    0. None: a gap over MAX_GAP_SHARE of the beat, or figures that are not finite.
+    """
+    if not beat.gap_s > 0.0:
+        return GapBounds(0.0, 0.0, 0.0)
+    period = beat.period_s
+    amplitude = beat.amplitude_rad
+    if not (math.isfinite(period) and period > 0.0 and math.isfinite(amplitude)):
+        return None
+    if not beat.gap_s <= MAX_GAP_SHARE * period:
+        return None
+    width = 2.0 * math.pi * beat.gap_s / period
+    total = 2.0 * math.pi * max(beat.gap_total_s, beat.gap_s) / period
+    curvature = CURVATURE_FACTOR * amplitude
+    line_error = curvature * width * width / 8.0
+    crossing_shift = line_error / (CROSSING_SLOPE_FACTOR * amplitude) if amplitude > 0.0 else 0.0
+    return GapBounds(
+        peak_rad=line_error,
+        mean_angle_rad=curvature * width * width * total / (24.0 * math.pi),
+        time_share=min(beat.gap_crossings, 2) * crossing_shift / (2.0 * math.pi),
+    )
+
+
 def not_judged_reason(beat: BeatStatistics) -> str | None:
-    """Why ``beat`` cannot be judged, or None if it can."""
+    """Why ``beat`` cannot be judged at all, or None if it may be (see :func:`judge` for gaps)."""
     reasons = []
     if not (math.isfinite(beat.mean_angle_rad) and math.isfinite(beat.positive_time_share)):
         reasons.append(
             "the carrier angle did not advance over the beat, so its mean and shares are "
             "undefined (reported as 0)"
         )
-    if beat.gap_s > 0.0:
+    if beat.gap_s > 0.0 and gap_bounds(beat) is None:
         reasons.append(
             f"the input has a gap of {beat.gap_s * 1e3:.0f} ms inside the beat (samples lost "
-            f"or late), peaks {math.degrees(beat.positive_peak_rad):+.3f}/"
+            f"or late; over {MAX_GAP_SHARE:g} of the beat), peaks "
+            f"{math.degrees(beat.positive_peak_rad):+.3f}/"
             f"{math.degrees(beat.negative_peak_rad):+.3f} deg are from what arrived"
         )
     return "not judged: " + "; ".join(reasons) if reasons else None
+
+
+def _level(value: float, warn: float, error: float) -> Verdict:
+    # Written as "not <=" so that a NaN figure is an error, never a pass.
+    if not abs(value) <= error:
+        return Verdict.ERROR
+    if not abs(value) <= warn:
+        return Verdict.WARN
+    return Verdict.OK
 
 
 def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict, str]:
@@ -166,6 +234,8 @@ def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict
     reason = not_judged_reason(beat)
     if reason is not None:
         return Verdict.NOT_JUDGED, reason
+    bounds = gap_bounds(beat)
+    assert bounds is not None  # not_judged_reason() refuses the gaps that cannot be bounded
     degrees = math.degrees
     measures: tuple[tuple[str, float, float, float, str, Callable[[float], str]], ...] = (
         ("time share", beat.time_share_imbalance, tolerances.time_share_warn,
@@ -179,23 +249,38 @@ def judge(beat: BeatStatistics, tolerances: SymmetryTolerances) -> tuple[Verdict
          f"peaks {degrees(beat.positive_peak_rad):+.3f}/{degrees(beat.negative_peak_rad):+.3f} deg",
          lambda limit: f"sum within +/- {degrees(limit):.3f} deg"),
     )  # fmt: skip
+    margins = (bounds.time_share, bounds.mean_angle_rad, bounds.peak_rad)
+    # A gap that could move a figure across a limit leaves the verdict open: not judged.
+    open_measures = [
+        f"{name} {text} +/- {degrees(margin) if name != 'time share' else margin:.3g}"
+        f"{' deg' if name != 'time share' else ''} could cross its limit"
+        for (name, value, warn, error, text, _), margin in zip(measures, margins, strict=True)
+        if margin > 0.0
+        and _level(max(abs(value) - margin, 0.0), warn, error)
+        != _level(abs(value) + margin, warn, error)
+    ]
+    if open_measures:
+        return Verdict.NOT_JUDGED, (
+            f"not judged: the input has a gap of {beat.gap_s * 1e3:.0f} ms inside the beat "
+            f"(samples lost or late) that could change the verdict: " + "; ".join(open_measures)
+        )
     verdict = Verdict.OK
     failures = []
     for name, value, warn, error, text, limit_text in measures:
-        # Written as "not <=" so that a NaN figure that got past not_judged_reason() (a peak)
-        # is an error, never a pass.
-        if not abs(value) <= error:
-            verdict = Verdict.ERROR
-            failures.append(f"{name} off: {text}, limit {limit_text(error)}")
-        elif not abs(value) <= warn:
-            verdict = max(verdict, Verdict.WARN)
-            failures.append(f"{name} off: {text}, limit {limit_text(warn)}")
+        level = _level(value, warn, error)
+        verdict = max(verdict, level)
+        if level != Verdict.OK:
+            limit = error if level == Verdict.ERROR else warn
+            failures.append(f"{name} off: {text}, limit {limit_text(limit)}")
+    bridged = ""
+    if beat.gap_s > 0.0:
+        bridged = f" (a gap of {beat.gap_s * 1e3:.0f} ms bridged, too short to change the verdict)"
     if not failures:
         return verdict, (
             f"symmetric: {beat.positive_time_share:.4f} of the beat on +side, "
-            f"mean theta3 {math.degrees(beat.mean_angle_rad):+.3f} deg"
+            f"mean theta3 {math.degrees(beat.mean_angle_rad):+.3f} deg{bridged}"
         )
-    return verdict, "asymmetric swing: " + "; ".join(failures)
+    return verdict, "asymmetric swing: " + "; ".join(failures) + bridged
 
 
 class BeatTracker:
@@ -234,6 +319,8 @@ class BeatTracker:
         self._integral = 0.0
         self._positive_time = 0.0
         self._gap = 0.0
+        self._gap_total = 0.0
+        self._gap_crossings = 0
 
     def reset(self) -> None:
         """Forget the beat in progress (e.g. after a gap in the data)."""
@@ -273,6 +360,9 @@ class BeatTracker:
         self._last_coordinate = coordinate
         completed = None
         gap = time_s - previous_time if after_gap else 0.0
+        crossed = 1 if gap > 0.0 and (previous < 0.0) != (theta3 < 0.0) else 0
+        self._gap_total += gap
+        self._gap_crossings += crossed
         if gap > self._gap:
             # Before a crossing in this interval: the beat it ends and the one it starts both
             # contain part of the gap.
@@ -289,6 +379,8 @@ class BeatTracker:
             self._armed = False
             self._reset_beat(crossing, crossing_coordinate)
             self._gap = gap
+            self._gap_total = gap
+            self._gap_crossings = crossed
             self._accumulate(crossing_coordinate, 0.0, coordinate, theta3)
         elif self._in_beat:
             self._accumulate(previous_coordinate, previous, coordinate, theta3)
@@ -331,6 +423,8 @@ class BeatTracker:
             positive_time_share=positive_share,
             negative_time_share=1.0 - positive_share,
             gap_s=self._gap,
+            gap_total_s=self._gap_total,
+            gap_crossings=self._gap_crossings,
         )
         self.beats_completed += 1
         return beat

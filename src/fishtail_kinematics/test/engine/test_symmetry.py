@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 
@@ -11,10 +12,16 @@ import pytest
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail
 from fishtail_kinematics.engine.symmetry import (
+    CROSSING_SLOPE_FACTOR,
+    CURVATURE_FACTOR,
+    MAX_GAP_SHARE,
+    BeatStatistics,
     BeatTracker,
+    GapBounds,
     SymmetryTolerances,
     Verdict,
     beats_of,
+    gap_bounds,
     judge,
 )
 
@@ -242,3 +249,98 @@ def test_a_long_gap_restarts_the_beat():
     # [2, 3] held the hole and is forgotten; after it theta3 must dip again before the crossing
     # at 4 s starts a beat.
     assert [(round(b.start_s, 6), round(b.end_s, 6)) for b in beats] == [(1.0, 2.0), (4.0, 5.0)]
+
+
+# ---- beats with a hole in the input
+
+
+def sine_with_hole(hole_s: float, hole_phase: float, *, peak_bias: float = 0.0, speed=4.0):
+    """theta3 of the report's amplitude at 200 Hz, 4 beats of a 4 rad/s carrier, with holes.
+
+    Samples are missing for ``hole_s`` around ``hole_phase`` (rad into each beat) of beats 1, 2.
+
+    ``peak_bias`` raises the positive half-wave only: a peak asymmetry of that much.
+    """
+    amplitude, period = 0.4636, 2 * math.pi / speed
+    time_s = np.arange(0.0, 4.2 * period, 0.005)
+    phase = speed * time_s
+    theta3 = amplitude * np.sin(phase)
+    theta3 = np.where(theta3 > 0.0, theta3 * (1.0 + peak_bias / amplitude), theta3)
+    keep = np.ones_like(time_s, bool)
+    for beat in (1, 2):
+        centre = (beat * 2 * math.pi + hole_phase) / speed
+        keep &= ~((time_s > centre - hole_s / 2) & (time_s < centre + hole_s / 2))
+    return time_s[keep], theta3[keep], phase[keep]
+
+
+def verdicts(time_s, theta3, carrier, tolerances=None):
+    tolerances = tolerances or SymmetryTolerances()
+    return [judge(beat, tolerances) for beat in beats_of(time_s, theta3, carrier_rad=carrier)]
+
+
+@pytest.mark.parametrize("where", [0.0, math.pi / 2, math.pi, 3 * math.pi / 2])
+def test_a_24_ms_hole_anywhere_in_a_symmetric_beat_is_bridged_and_judged(where):
+    # At the zero crossings, the peaks and in between: too short to move any figure to a limit.
+    time_s, theta3, carrier = sine_with_hole(0.024, where)
+    beats = beats_of(time_s, theta3, carrier_rad=carrier)
+    assert any(beat.gap_s > 0.02 for beat in beats)
+    results = verdicts(time_s, theta3, carrier)
+    assert [verdict for verdict, _ in results] == [Verdict.OK] * len(results), results
+    # 24 ms missing on a 5 ms grid: a 30 ms interval.
+    assert any("a gap of 30 ms bridged" in text for _, text in results), results
+
+
+def test_a_small_hole_is_not_judged_only_where_it_could_cross_a_limit():
+    # A 40 ms hole at 4 rad/s may hide up to 0.003 rad of a peak (the bound does not use where
+    # the hole is): a figure that close to a limit is left open, one farther from it is judged.
+    tolerances = SymmetryTolerances()
+    time_s, theta3, carrier = sine_with_hole(0.04, math.pi / 2, peak_bias=0.0099)
+    results = verdicts(time_s, theta3, carrier, tolerances)
+    holed = [r for r in results if "gap" in r[1]]
+    assert holed and all(v == Verdict.NOT_JUDGED for v, _ in holed), results
+    assert all("peak asymmetry" in t and "could cross its limit" in t for _, t in holed), holed
+    assert all(v == Verdict.OK for v, t in results if "gap" not in t), results
+    time_s, theta3, carrier = sine_with_hole(0.04, math.pi / 2, peak_bias=0.005)
+    assert all(v == Verdict.OK for v, _ in verdicts(time_s, theta3, carrier, tolerances))
+    # A clear asymmetry stays an ERROR across the hole: the bound cannot bring it back.
+    time_s, theta3, carrier = sine_with_hole(0.04, math.pi / 2, peak_bias=0.1)
+    assert all(v == Verdict.ERROR for v, _ in verdicts(time_s, theta3, carrier, tolerances))
+
+
+def test_a_hole_over_an_eighth_of_the_beat_is_not_judged():
+    time_s, theta3, carrier = sine_with_hole(0.315, math.pi / 2)
+    results = verdicts(time_s, theta3, carrier)
+    holed = [text for verdict, text in results if verdict == Verdict.NOT_JUDGED]
+    assert len(holed) == 2 and all("gap of 3" in t and "over 0.125" in t for t in holed), results
+
+
+def test_gap_bounds_follow_the_curvature_rule():
+    beat = BeatStatistics(
+        index=0, start_s=0.0, end_s=1.0, positive_peak_rad=0.5, negative_peak_rad=-0.5,
+        mean_angle_rad=0.0, positive_time_share=0.5, negative_time_share=0.5, gap_s=0.02,
+        gap_total_s=0.04, gap_crossings=2,
+    )  # fmt: skip
+    bounds = gap_bounds(beat)
+    width = 2 * math.pi * 0.02
+    curvature = CURVATURE_FACTOR * 0.5
+    assert bounds.peak_rad == pytest.approx(curvature * width**2 / 8)
+    assert bounds.mean_angle_rad == pytest.approx(curvature * width**2 * 2 * width / (24 * math.pi))
+    assert bounds.time_share == pytest.approx(
+        2 * (curvature * width**2 / 8) / (CROSSING_SLOPE_FACTOR * 0.5) / (2 * math.pi)
+    )
+    # No gap: no bound; a NaN amplitude or a hole over MAX_GAP_SHARE: cannot be bounded.
+    assert gap_bounds(dataclasses.replace(beat, gap_s=0.0)) == GapBounds(0.0, 0.0, 0.0)
+    assert gap_bounds(dataclasses.replace(beat, positive_peak_rad=math.nan)) is None
+    assert gap_bounds(dataclasses.replace(beat, gap_s=MAX_GAP_SHARE * 1.01)) is None
+    # The bound holds for the linkage itself: the largest error of a straight line across a
+    # hole of this width anywhere in the report's swing is below it.
+    tail = OscillatoryTail(OscillatoryGeometry())
+    phase = np.linspace(0.0, 2 * math.pi, 4001)
+    theta3 = np.asarray(tail.solve(phase, 0.0 * phase).theta3)
+    amplitude = 0.5 * (theta3.max() - theta3.min())
+    step = int(round(width / (phase[1] - phase[0])))
+    worst = 0.0
+    for start in range(0, len(phase) - step, 7):
+        chord = np.linspace(theta3[start], theta3[start + step], step + 1)
+        worst = max(worst, float(np.abs(theta3[start : start + step + 1] - chord).max()))
+    assert worst < CURVATURE_FACTOR * amplitude * width**2 / 8
