@@ -1,12 +1,13 @@
 """``fishtail-run``: start the node suite, command the motor and show the tail live.
 
 For machines without ``ros2 launch`` (ROS 2 from PyPI wheels): each node a process of its own
-(:mod:`fishtail_bringup.supervisor`), or all in one with ``--one-process``, and a console node
-that publishes the carrier speed at 10 Hz and prints the status line
-(:mod:`fishtail_bringup.console_node`). Options add the simulator, the live view, the DC motor and
-its load, the pilot or the real firmware (``--help``; README.md, "The two commands"). Ctrl-C (or
-``--duration``) commands speed 0, sends SIGINT to every node, waits for them and kills any that
-hang; a node that dies early ends the run with exit status 1.
+(:mod:`fishtail_bringup.supervisor`), or all in one with ``--one-process``, the carrier speed
+published from a thread of its own (:mod:`fishtail_bringup.speed_commands`), and a console node
+that prints the status line (:mod:`fishtail_bringup.console_node`). Options add the simulator,
+the live view, the DC motor and its load, the pilot or the real firmware (``--help``;
+README.md, "The two commands"). Ctrl-C (or ``--duration``) commands speed 0, sends SIGINT to every
+node, waits for them and kills any that hang; a node that dies early ends the run with exit
+status 1.
 """
 
 from __future__ import annotations
@@ -25,6 +26,12 @@ from fishtail_bringup.console import (
     square_route,
 )
 from fishtail_bringup.console_node import Console
+from fishtail_bringup.speed_commands import (
+    COMMAND_PERIOD_S,
+    COMMAND_TIMEOUT_S,
+    SpeedCommands,
+    margin_text,
+)
 from fishtail_bringup.supervisor import Supervisor
 from fishtail_common.command_line import DURATION, add_parameter_options
 from fishtail_common.interface import (
@@ -266,7 +273,11 @@ def main(argv: list[str] | None = None) -> int:
         + (f" for {arguments.duration:g} s" if arguments.duration else " until Ctrl-C")
     )
     supervisor.start()
-    console = Console(speed, arguments.namespace, supervisor.say, swim, route)
+    # The speed goes out from its own thread: nothing the console's loop does can delay it.
+    commands = None if speed is None else SpeedCommands(speed, arguments.namespace)
+    if commands is not None:
+        commands.start()
+    console = Console(None, arguments.namespace, supervisor.say, swim, route)
     executor = rclpy.executors.SingleThreadedExecutor()
     executor.add_node(console.node)
     started = time.monotonic()
@@ -291,19 +302,25 @@ def main(argv: list[str] | None = None) -> int:
                     sys.stdout.flush()
                 next_print = now + (0.25 if interactive else 1.0)
     finally:
-        if speed is not None:
-            console.speed = 0.0
-            console.command(0.0)
+        if commands is not None:
+            commands.stop(0.0)
         if interactive:
             sys.stdout.write("\n")
         statuses = supervisor.stop()
         summary = console.line(time.monotonic() - started)
         executor.shutdown()
         console.node.destroy_node()
+        if commands is not None:
+            commands.close()
         rclpy.try_shutdown()
         for command in boards.values():  # the link's folder (the board removed the link)
             shutil.rmtree(Path(command[command.index("--link") + 1]).parent, ignore_errors=True)
     print(f"fishtail-run: last state: {summary}")
+    if commands is not None:
+        print(
+            "fishtail-run: "
+            + margin_text(commands.lateness_s(), COMMAND_PERIOD_S, COMMAND_TIMEOUT_S)
+        )
     for name, status in early_exit:
         print(f"fishtail-run: error: node process {name} exited early with status {status}")
     failed = {name: status for name, status in statuses.items() if status != 0}
