@@ -59,10 +59,17 @@ def fish_text(speed_m_s: float | None, heading_rad: float | None) -> str:
 
     >>> fish_text(0.1834, -0.0123)
     'fish 0.183 m/s heading  -0.70°'
+    >>> fish_text(0.1834, math.radians(222.5))  # a compass heading, however far it has turned
+    'fish 0.183 m/s heading -137.50°'
     """
     if speed_m_s is None or heading_rad is None:
         return "fish --"
-    return f"fish {speed_m_s:.3f} m/s heading {math.degrees(heading_rad):+6.2f}°"
+    return f"fish {speed_m_s:.3f} m/s heading {compass_degrees(heading_rad):+6.2f}°"
+
+
+def compass_degrees(heading_rad: float) -> float:
+    """A heading in degrees in (-180, 180], however many turns the unwrapped angle holds."""
+    return math.degrees(math.remainder(heading_rad, math.tau))
 
 
 def fish_preparing_text(phase: str, seconds: float) -> str:
@@ -86,7 +93,7 @@ def pilot_text(
     >>> pilot_text((0.0, 0.0), 0.0, None)
     'at (0.00, 0.00) m heading   +0.0° no goal'
     """
-    heading = math.degrees(heading_rad)
+    heading = compass_degrees(heading_rad)
     where = f"at ({position_m[0]:.2f}, {position_m[1]:.2f}) m heading {heading:+6.1f}°"
     if goal_m is None:
         return f"{where} no goal"

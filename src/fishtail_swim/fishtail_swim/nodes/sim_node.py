@@ -41,7 +41,7 @@ from fishtail_common.ros import (
     subscriber_qos,
     suite_publisher,
 )
-from fishtail_common.stream_timing import StreamTiming
+from fishtail_common.stream_timing import PersistentStatus, StreamTiming
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_kinematics.engine.input_guard import (
     CARRIER_JUMP,
@@ -207,6 +207,8 @@ class SimNode(SuiteNodeBase):
             reason: f"{INPUT_TOPIC} sample dropped: {text}" for reason, text in REASON_TEXT.items()
         }
         self.timing = StreamTiming()
+        # Gaps and a low rate WARN only once they persist (the machine's jitter is not a fault).
+        self.timing_status = PersistentStatus()
         self.received = 0
         self.last_input_ns: int | None = None
         #: Node clock when the guard last accepted a sample (None before the first).
@@ -500,7 +502,11 @@ class SimNode(SuiteNodeBase):
     def _on_diagnostics(self) -> None:
         now_ns = self.get_clock().now().nanoseconds
         level, text, input_values = input_status(
-            INPUT_TOPIC, self.drops, self.timing.take_period(), DIAGNOSTICS_PERIOD_S
+            INPUT_TOPIC,
+            self.drops,
+            self.timing.take_period(),
+            DIAGNOSTICS_PERIOD_S,
+            self.timing_status,
         )
         carrier_problems, carrier_values = self._carrier_problems()
         if carrier_problems:
@@ -508,7 +514,8 @@ class SimNode(SuiteNodeBase):
             text = "; ".join((*carrier_problems, text))
         row = self.follower.state[0]
         speed = math.hypot(float(row[SURGE]), float(row[SWAY]))
-        heading_deg = math.degrees(float(row[PSI]))
+        # The heading as a compass reads it, in (-180, 180]; the state keeps it unwrapped.
+        heading_deg = math.degrees(math.remainder(float(row[PSI]), math.tau))
         preparing = self.integrator_phase in PREPARING_PHASES
         integrator_s = (
             time.monotonic() - self._warm_up_started if preparing else (self.warm_up_s or 0.0)
