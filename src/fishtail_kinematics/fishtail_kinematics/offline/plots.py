@@ -49,8 +49,10 @@ def plot_tip_path(tip_x: np.ndarray, tip_y: np.ndarray, path: Path, title: str) 
     """Path of the tail tip T in the frame at O (the report's figures 13 and 16)."""
     plt = _pyplot()
     figure, axes = plt.subplots(figsize=(6, 5))
-    axes.plot(tip_x, tip_y, color="tab:blue", linewidth=1.5)
-    axes.plot([0.0], [0.0], marker="+", color="grey")
+    axes.plot(tip_x, tip_y, color="tab:blue", linewidth=1.5, label="path of the tip T")
+    axes.plot([0.0], [0.0], linestyle="none", marker="+", markersize=10, color="grey",
+              label="O (0, 0): ring-gear centre, the frame's origin")  # fmt: skip
+    axes.legend(loc="best", fontsize=8)
     axes.set_xlabel("T_x [m] (body axis, towards the tail)")
     axes.set_ylabel("T_y [m] (left)")
     axes.set_title(f"Tail tip path: {title}")
