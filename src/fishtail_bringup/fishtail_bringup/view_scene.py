@@ -55,8 +55,10 @@ _POINT_LISTS = frozenset({CUBE_LIST, SPHERE_LIST, POINTS})
 GOAL_COLOUR: Colour = (0.85, 0.2, 0.85, 1.0)
 GOAL_DIAMETER_M = 0.06
 GOAL_HEADING_M = 0.15
-#: Log levels of the symmetry verdicts (Rerun's TextLog levels).
-VERDICT_LEVELS = {"OK": "INFO", "WARN": "WARN", "ERROR": "ERROR", "NOT_JUDGED": "DEBUG"}
+#: Log levels of the symmetry verdicts (Rerun's TextLog levels). NOT_JUDGED (a beat with a gap in
+#: tail/state) is a WARN, as on /diagnostics: the monitor's input status warns about the gap, and
+#: beats not judged before any judged one are a WARN there; DEBUG would hide it in the view.
+VERDICT_LEVELS = {"OK": "INFO", "WARN": "WARN", "ERROR": "ERROR", "NOT_JUDGED": "WARN"}
 
 
 @dataclasses.dataclass(frozen=True)

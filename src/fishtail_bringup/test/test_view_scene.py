@@ -147,7 +147,7 @@ def test_tail_plots_gather_degrees_and_skip_a_missing_theta5():
 @pytest.mark.parametrize(
     ("verdict", "level"),
     [(SymmetryReport.OK, "INFO"), (SymmetryReport.WARN, "WARN"), (SymmetryReport.ERROR, "ERROR"),
-     (SymmetryReport.NOT_JUDGED, "DEBUG")],
+     (SymmetryReport.NOT_JUDGED, "WARN")],
 )  # fmt: skip
 def test_verdicts_become_log_lines_with_levels(verdict, level):
     report = SymmetryReport(beat_index=7, verdict=verdict, message="symmetric: 0.5000")
