@@ -151,26 +151,27 @@ def test_a_rerun_client_receives_the_tail_and_the_plots(
     client = start_client(start_process, rerun_settings, url, rrd)
     ros.wait_for_subscribers(TAIL_MARKERS.name, 1)
     ros.wait_for_subscribers(TAIL_STATE.name, 3)  # and the view, sensor-data QoS
-    needed = {"/tail/links", "/tail/tail_link", "/tail/ring", "/plots/angles/theta3",
-              "/plots/carrier/speed"}  # fmt: skip
+    needed = {"/tail/drawing", "/plots/angles", "/plots/carrier"}
     ros.spin_until(lambda: needed <= set(received(rrd)), DATA_TIMEOUT_S, f"{needed} at the client")
     ros.spin_until(
-        lambda: (
-            len(column(received(rrd).get("/plots/angles/theta3", []), "Scalars:scalars")) >= 500
-        ),
+        lambda: len(column(received(rrd).get("/plots/angles", []), "Scalars:scalars")) >= 500,
         DATA_TIMEOUT_S,
-        "2.5 s of theta3 (more than a beat) at the client",
+        "10 s of theta3 (at --plot-rate-hz 50) at the client",
     )
     client.stop()
     entities = received(rrd)
-    theta3 = column(entities["/plots/angles/theta3"], "Scalars:scalars")
-    speed = column(entities["/plots/carrier/speed"], "Scalars:scalars")
+    theta3 = column(entities["/plots/angles"], "Scalars:scalars")  # mechanism 1: theta3 alone
+    speed = column(entities["/plots/carrier"], "Scalars:scalars")
     # The report's mechanism swings about +-26 degrees; the simulated motor holds 4 rad/s.
     assert 20.0 < theta3.max() < 30.0 and -30.0 < theta3.min() < -20.0
     assert np.median(speed) == pytest.approx(SPEED_RAD_S, rel=0.05)
-    links = entities["/tail/links"][-1].column("LineStrips2D:strips").to_pylist()[-1]
-    assert len(links) >= 2  # segments of the drive links, in the tail frame
-    assert all(abs(x) < 0.6 and abs(y) < 0.6 for strip in links for x, y in strip)
+    # One entity per drawing: every strip (ring, guides, planet, links, ...) and every disc.
+    drawing = entities["/tail/drawing"][-1]
+    strips = drawing.column("LineStrips2D:strips").to_pylist()[-1]
+    colours = drawing.column("LineStrips2D:colors").to_pylist()[-1]
+    assert len(strips) >= 6 and len(colours) == len(strips)
+    assert all(abs(x) < 0.6 and abs(y) < 0.6 for strip in strips for x, y in strip)
+    assert len(drawing.column("Points2D:positions").to_pylist()[-1]) >= 4  # joints and pivots
     assert all(node.returncode is None for node in nodes)
     assert view.returncode is None
 
@@ -394,19 +395,18 @@ def test_a_bag_replays_at_its_pace_to_a_client(ros, start_process, rerun_setting
     wait_for_output(ros, view, "replay done")
     took = time.monotonic() - started
     ros.spin_until(
-        lambda: (
-            len(column(received(rrd).get("/plots/angles/theta3", []), "Scalars:scalars")) >= 600
-        ),
+        lambda: len(column(received(rrd).get("/plots/angles", []), "Scalars:scalars")) >= 600,
         DATA_TIMEOUT_S,
         "every theta3 sample of the bag at the client",
     )
     client.stop()
     entities = received(rrd)
     assert took >= 2.5  # 3 s of bag, at its own pace (not as fast as it reads)
-    for entity in ("/tail/links", "/tail/tip_trail", "/fish/body", "/fish/path", "/fish/tail",
-                   "/fish/goal", "/symmetry"):  # fmt: skip
+    for entity in ("/tail/drawing", "/fish/drawing", "/fish/goal", "/symmetry"):
         assert entity in entities, (entity, sorted(entities))
-    theta3 = column(entities["/plots/angles/theta3"], "Scalars:scalars")
+    fish = entities["/fish/drawing"][-1].column("LineStrips2D:strips").to_pylist()[-1]
+    assert len(fish) == 3  # hull, path and tail
+    theta3 = column(entities["/plots/angles"], "Scalars:scalars")
     assert len(theta3) == 600 and 20.0 < theta3.max() < 30.0
     assert "linkage drawn with the geometry of" in view.stdout()
     assert view.returncode is None  # still serving after the replay

@@ -33,7 +33,8 @@ from fishtail_bringup.speed_commands import (
     margin_text,
 )
 from fishtail_bringup.supervisor import Supervisor
-from fishtail_common.command_line import DURATION, add_parameter_options
+from fishtail_bringup.view import PACING_OPTIONS
+from fishtail_common.command_line import DURATION, add_parameter_options, flag_name
 from fishtail_common.interface import (
     PILOT_NODE,
     SUITE_NODES,
@@ -70,6 +71,13 @@ def motor_parameters(motor: str | None, load: str) -> list[str]:
     if load != NO_LOAD:
         items.append(f"motor_load:={load}")
     return items
+
+
+def view_options(arguments: argparse.Namespace) -> list[str]:
+    """The live view's pacing options that were given, as fishtail-view's flags."""
+    given = [(spec, getattr(arguments, spec.name)) for spec in PACING_OPTIONS]
+    return [part for spec, value in given if value is not None
+            for part in (flag_name(spec.name), str(value))]  # fmt: skip
 
 
 def _point(text: str) -> tuple[float, float]:
@@ -121,6 +129,11 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also start the live view (fishtail-view: the linkage, plots, verdicts and fish in a "
         "browser or Rerun's viewer; it prints the address)",
+    )
+    add_parameter_options(
+        parser.add_argument_group("what the live view sends (--view; default: fishtail-view's)"),
+        PACING_OPTIONS,
+        optional=True,
     )
     parser.add_argument(
         "--fish",
@@ -247,6 +260,7 @@ def main(argv: list[str] | None = None) -> int:
         one_process=arguments.one_process,
         pilot_params=pilot_params,
         boards=boards,
+        view_options=view_options(arguments),
     )
     speed = None if arguments.no_command or piloted else arguments.speed
     route = None

@@ -24,7 +24,7 @@ import yaml
 
 from fishtail_bringup.one_process import END_OF_ROS_ARGS, HOSTABLE
 from fishtail_bringup.own_parameters import write_own_parameters
-from fishtail_common.interface import PILOT_NODE, SUITE_NODES, SuiteNode
+from fishtail_common.interface import PILOT_NODE, SUITE_NODES, VIEW_NODE, SuiteNode
 
 SHUTDOWN_WAIT_S = 5.0
 #: The label of the process that hosts the nodes with ``one_process``.
@@ -45,6 +45,7 @@ class Supervisor:
         one_process: bool = False,
         pilot_params: list[str] | None = None,
         boards: dict[str, list[str]] | None = None,
+        view_options: list[str] | None = None,
     ) -> None:
         """Remember how to start the nodes.
 
@@ -53,8 +54,10 @@ class Supervisor:
         driver with ``driver_reads_fish`` (its motor turns the tail). ``one_process``: host
         the nodes in one process (:meth:`commands`). ``pilot_params`` (``NAME:=VALUE``) go to the
         pilot. ``boards``: commands by label of processes the nodes talk to (a simulated motor
-        board), started before the nodes and stopped after them.
+        board), started before the nodes and stopped after them. ``view_options``: the live
+        view's own options (``--send-period-s 0.5``), before its ROS arguments.
         """
+        self.view_options = view_options or []
         self.boards = boards or {}
         self.pilot_params = pilot_params or []
         self.one_process = one_process
@@ -71,7 +74,8 @@ class Supervisor:
 
     def command_for(self, node: SuiteNode) -> list[str]:
         """The command line of one node in its own process."""
-        return [sys.executable, "-m", node.module, *self.ros_arguments_for(node)]
+        options = self.view_options if node == VIEW_NODE else []
+        return [sys.executable, "-m", node.module, *options, *self.ros_arguments_for(node)]
 
     def one_process_command(self, nodes: tuple[SuiteNode, ...]) -> list[str]:
         """The command line of one process hosting ``nodes``, each with its own ROS arguments."""

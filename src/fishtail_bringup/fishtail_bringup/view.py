@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import itertools
+import math
 import sys
 import threading
 import time
@@ -34,6 +35,7 @@ from fishtail_bringup.view_scene import (
     TailPlots,
     goal_primitives,
     marker_primitives,
+    merged,
     stamp_seconds,
     symmetry_primitives,
 )
@@ -50,8 +52,9 @@ from fishtail_common.parameters import ParameterSpec
 PROGRAM = "fishtail-view"
 #: How often the viewers are counted (and subscriptions follow them).
 WATCH_PERIOD_S = 0.5
-#: How often the gathered tail/state samples go to the plots while someone looks.
-PLOT_PERIOD_S = 0.1
+#: How often the view's latency goes to its plot (it is an entity, one more message per batch
+#: for the browser's viewer to take in; docs/visualisation.md, "Keeping up").
+LATENCY_PLOT_PERIOD_S = 1.0
 #: While a bag waits for its first viewer, and after it ends: how often to look again.
 IDLE_PERIOD_S = 0.2
 #: The highest TCP port.
@@ -69,7 +72,7 @@ WEB_PORT = ParameterSpec(
 #: What the live view sends: each stream decimated, late messages dropped, its latency watched
 #: (fishtail_bringup.view_pacing; docs/visualisation.md, "Keeping up").
 MARKERS_RATE = ParameterSpec(
-    "markers_rate_hz", 15.0, "marker arrays drawn per second, per topic, 0 = all", "Hz", 0.0, 1000.0
+    "markers_rate_hz", 10.0, "marker arrays drawn per second, per topic, 0 = all", "Hz", 0.0, 1000.0
 )
 PLOT_RATE = ParameterSpec(
     "plot_rate_hz", 50.0, "tail/state samples plotted per second, 0 = all", "Hz", 0.0, 1000.0
@@ -95,6 +98,7 @@ class Pacing:
 
     markers_rate_hz: float = MARKERS_RATE.default  # type: ignore[assignment]
     plot_rate_hz: float = PLOT_RATE.default  # type: ignore[assignment]
+    send_period_s: float = SEND_PERIOD.default  # type: ignore[assignment]
     drop_late_s: float = DROP_LATE.default  # type: ignore[assignment]
     latency_warning_s: float = LATENCY_WARNING.default  # type: ignore[assignment]
 
@@ -144,6 +148,7 @@ class ViewNode:
         self.latency = LatencyWatch(pacing.latency_warning_s)
         self.decimated = 0
         self._newest_sent: float | None = None
+        self._latency_plotted = -math.inf
         self.subscriptions: list = []
         self.viewers = 0
         self.goal = None
@@ -189,7 +194,8 @@ class ViewNode:
             node.create_subscription(kind, topic.name, callback, subscriber_qos(topic))
             for kind, topic, callback in table
         ]
-        self.plot_timer = node.create_timer(PLOT_PERIOD_S, self._flush_plots)
+        # The plots go out once per batch: more often would not reach a viewer sooner.
+        self.plot_timer = node.create_timer(self.pacing.send_period_s, self._flush_plots)
         if self.goal is not None:
             self._log(*goal_primitives(self.goal))
 
@@ -217,7 +223,8 @@ class ViewNode:
             if not limit.admit(stamp):
                 self.decimated += 1
                 return
-        self._log(*marker_primitives(array, root))
+        stamp, primitives = marker_primitives(array, root)
+        self._log(stamp, merged(primitives, root))
 
     def _on_state(self, state) -> None:
         if not self.lateness.late(stamp_seconds(state.header), time.time()):
@@ -237,7 +244,9 @@ class ViewNode:
         note = self.latency.update(latency, now)
         if note is not None:
             self.say(note)
-        self.view.log_latency(newest, latency, note)
+        if note is not None or now - self._latency_plotted >= LATENCY_PLOT_PERIOD_S:
+            self._latency_plotted = now
+            self.view.log_latency(newest, latency, note)
 
     def summary(self) -> str:
         """What was logged and what was not."""
@@ -395,6 +404,7 @@ def main(argv: list[str] | None = None) -> int:
         pacing = Pacing(
             arguments.markers_rate_hz,
             arguments.plot_rate_hz,
+            arguments.send_period_s,
             arguments.drop_late_s,
             arguments.latency_warning_s,
         )

@@ -24,6 +24,7 @@ from fishtail_bringup.view_scene import (
     TailPlots,
     goal_primitives,
     marker_primitives,
+    merged,
     polyline,
     spec_primitives,
     stamp_seconds,
@@ -231,19 +232,21 @@ class BagReplay:
                 if draw_tail and bag_s >= next_tail:
                     next_tail = bag_s + 1.0 / TAIL_FRAME_RATE_HZ
                     primitives = self._tail_for(message).primitives(message)
-                    yield bag_s, stamp_seconds(message.header), primitives
+                    yield bag_s, stamp_seconds(message.header), merged(primitives, TAIL_ROOT)
                 if bag_s >= next_plot:
                     next_plot = bag_s + PLOT_PERIOD_S
                     yield bag_s, None, plots.flush()
             elif name == FISH_ODOM.name:
                 if draw_fish and bag_s >= next_fish:
                     next_fish = bag_s + 1.0 / FISH_FRAME_RATE_HZ
-                    yield bag_s, stamp_seconds(message.header), self.fish.primitives(message, tip)
+                    fish = self.fish.primitives(message, tip)
+                    yield bag_s, stamp_seconds(message.header), merged(fish, FISH_ROOT)
             elif name == TAIL_SYMMETRY.name:
                 yield (bag_s, *symmetry_primitives(message))
             elif name == GOAL_POSE.name:
                 yield (bag_s, *goal_primitives(message))
             else:
                 root = TAIL_ROOT if name == TAIL_MARKERS.name else FISH_ROOT
-                yield (bag_s, *marker_primitives(message, root))
+                stamp, primitives = marker_primitives(message, root)
+                yield bag_s, stamp, merged(primitives, root)
         yield bag_s, None, plots.flush()

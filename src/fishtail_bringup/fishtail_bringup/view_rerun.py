@@ -17,18 +17,18 @@ from typing import Any
 import numpy as np
 
 from fishtail_bringup.view_scene import (
+    ANGLES_PLOT,
     CARRIER_SPEED_PLOT,
     FISH_ROOT,
     SYMMETRY_LOG,
     TAIL_ROOT,
-    THETA3_PLOT,
-    THETA5_PLOT,
     Clear,
     Colour,
     Lines,
     Points,
     Primitive,
     Series,
+    Shapes,
     Text,
 )
 
@@ -42,18 +42,19 @@ TIMELINE = "time"
 #: a browser that connects takes in the whole history before it shows now.
 SERVER_MEMORY_LIMIT = "32MiB"
 #: How often the SDK hands what was logged to the server, in batches (one chunk per entity per
-#: batch; the web viewer's cost is mostly per chunk). Rerun's own default is 0.2 s.
-DEFAULT_SEND_PERIOD_S = 0.2
+#: batch; the web viewer's cost is mostly per chunk). Rerun's own default is 0.2 s; 0.3 s with
+#: about 4 entities per batch keeps a software-rendered page within 2 s (docs/visualisation.md).
+DEFAULT_SEND_PERIOD_S = 0.3
 #: The view's own latency (send time minus the newest sent stamp, s) and its warnings.
 LATENCY_PLOT = "view/latency"
 VIEW_NOTES = "view/notes"
 #: Seconds of the scrolling plots.
 PLOT_WINDOW_S = 10.0
+#: Each plotted entity's series: names and colours, in the order of its values' columns.
 PLOT_COLOURS = {
-    THETA3_PLOT: ("θ3", (51, 204, 102)),
-    THETA5_PLOT: ("θ5", (230, 120, 40)),
-    CARRIER_SPEED_PLOT: ("carrier speed", (64, 140, 242)),
-    LATENCY_PLOT: ("view latency", (230, 200, 60)),
+    ANGLES_PLOT: (("θ3", "θ5"), ((51, 204, 102), (230, 120, 40))),
+    CARRIER_SPEED_PLOT: (("carrier speed",), ((64, 140, 242),)),
+    LATENCY_PLOT: (("view latency",), ((230, 200, 60),)),
 }
 
 
@@ -172,8 +173,8 @@ class RerunView:
     def _style(self) -> None:
         """Names and colours of the plotted series, and +y up in both pictures (static)."""
         rr = self.rr
-        for entity, (name, colour) in PLOT_COLOURS.items():
-            rr.log(entity, rr.SeriesLines(names=name, colors=[colour]), static=True,
+        for entity, (names, colours) in PLOT_COLOURS.items():
+            rr.log(entity, rr.SeriesLines(names=names, colors=colours), static=True,
                    recording=self.recording)  # fmt: skip
         # Rerun's 2D views point y down (image rows); the frames here have y to the left of x.
         for root in (TAIL_ROOT, FISH_ROOT):
@@ -197,11 +198,17 @@ class RerunView:
         """Log everything again from now on (a new viewer may lack what was logged once)."""
         self._shown.clear()
 
-    def _unchanged(self, primitive: Lines | Points) -> bool:
+    @staticmethod
+    def _key(primitive: Lines | Points | Shapes) -> tuple:
         if isinstance(primitive, Lines):
-            key = (primitive.colour, primitive.width_m, *(s.tobytes() for s in primitive.strips))
-        else:
-            key = (primitive.colour, primitive.diameter_m, primitive.positions.tobytes())
+            return (primitive.colour, primitive.width_m, *(s.tobytes() for s in primitive.strips))
+        if isinstance(primitive, Points):
+            return (primitive.colour, primitive.diameter_m, primitive.positions.tobytes())
+        parts: tuple[Lines | Points, ...] = (*primitive.lines, *primitive.points)
+        return tuple(RerunView._key(part) for part in parts)
+
+    def _unchanged(self, primitive: Lines | Points | Shapes) -> bool:
+        key = self._key(primitive)
         if self._shown.get(primitive.entity) == key:
             return True
         self._shown[primitive.entity] = key
@@ -219,7 +226,7 @@ class RerunView:
             rr.set_time(TIMELINE, timestamp=stamp_s, recording=recording)
         count = 0
         for primitive in primitives:
-            if isinstance(primitive, Lines | Points) and self._unchanged(primitive):
+            if isinstance(primitive, Lines | Points | Shapes) and self._unchanged(primitive):
                 continue
             if isinstance(primitive, Clear):
                 self._shown = {
@@ -235,6 +242,8 @@ class RerunView:
                     columns=rr.Scalars.columns(scalars=primitive.values),
                     recording=recording,
                 )
+            elif isinstance(primitive, Shapes):
+                self._log_shapes(primitive)
             elif isinstance(primitive, Lines):
                 rr.log(
                     primitive.entity,
@@ -264,6 +273,26 @@ class RerunView:
             elif isinstance(primitive, Clear):
                 rr.log(primitive.entity, rr.Clear(recursive=True), recording=recording)
         return count
+
+    def _log_shapes(self, shapes: Shapes) -> None:
+        """A drawing as one entity: its strips and its discs, each with its colour and size."""
+        rr = self.rr
+        parts: list[Any] = []
+        strips = [(lines, strip) for lines in shapes.lines for strip in lines.strips]
+        if strips:
+            parts.append(rr.LineStrips2D(
+                [np.asarray(strip, dtype=np.float32) for _, strip in strips],
+                radii=[0.5 * lines.width_m for lines, _ in strips],
+                colors=[_rgba(lines.colour) for lines, _ in strips],
+            ))  # fmt: skip
+        discs = [(points, n) for points in shapes.points for n in range(len(points.positions))]
+        if discs:
+            parts.append(rr.Points2D(
+                np.concatenate([points.positions for points in shapes.points]).astype(np.float32),
+                radii=[0.5 * points.diameter_m for points, _ in discs],
+                colors=[_rgba(points.colour) for points, _ in discs],
+            ))  # fmt: skip
+        rr.log(shapes.entity, *parts, recording=self.recording)
 
     def log_latency(self, stamp_s: float, latency_s: float, note: str | None = None) -> None:
         """The view's latency at ``stamp_s`` (a point of the "view latency" plot), and a note."""

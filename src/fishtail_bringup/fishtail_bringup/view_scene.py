@@ -38,9 +38,9 @@ Colour = tuple[float, float, float, float]  # RGBA, 0..1 as in std_msgs/ColorRGB
 #: Entity roots: the tail's drawing (its frame), the fish's (``world``), the plots, the verdicts.
 TAIL_ROOT = "tail"
 FISH_ROOT = "fish"
-THETA3_PLOT = "plots/angles/theta3"
-THETA5_PLOT = "plots/angles/theta5"
-CARRIER_SPEED_PLOT = "plots/carrier/speed"
+#: The plots: theta3 and theta5 as two series of one entity (one message per batch, not two).
+ANGLES_PLOT = "plots/angles"
+CARRIER_SPEED_PLOT = "plots/carrier"
 SYMMETRY_LOG = "symmetry"
 GOAL_ENTITY = f"{FISH_ROOT}/goal"
 
@@ -82,8 +82,22 @@ class Points:
 
 
 @dataclasses.dataclass(frozen=True)
+class Shapes:
+    """The lines and discs of one drawing (a marker array), drawn as one entity.
+
+    Every strip and every disc keeps its colour and size; a browser's viewer takes data in per
+    entity and batch, so one array costs it one message instead of one per marker
+    (docs/visualisation.md, "Keeping up").
+    """
+
+    entity: str
+    lines: tuple[Lines, ...]
+    points: tuple[Points, ...]
+
+
+@dataclasses.dataclass(frozen=True)
 class Series:
-    """Samples of one plotted quantity: values at times (seconds of the ``time`` timeline)."""
+    """Samples of plotted quantities: values ``(n,)`` or ``(n, k)`` (k series) at times (s)."""
 
     entity: str
     times_s: FloatArray
@@ -106,7 +120,24 @@ class Clear:
     entity: str
 
 
-Primitive = Lines | Points | Series | Text | Clear
+Primitive = Lines | Points | Shapes | Series | Text | Clear
+
+
+def merged(primitives: Iterable[Primitive], root: str) -> list[Primitive]:
+    """The Lines and Points of one drawing as one :class:`Shapes` at ``root/drawing``, last.
+
+    Clears of single markers are left out: the drawing is replaced as a whole each time.
+
+    >>> dot = Points("tail/joints", np.zeros((2, 2)), (1.0, 1.0, 1.0, 1.0), 0.01)
+    >>> [type(p).__name__ for p in merged([Clear("tail"), dot, Clear("tail/joints")], "tail")]
+    ['Clear', 'Shapes']
+    """
+    primitives = list(primitives)
+    lines = tuple(p for p in primitives if isinstance(p, Lines))
+    points = tuple(p for p in primitives if isinstance(p, Points))
+    rest: list[Primitive] = [p for p in primitives if isinstance(p, Series | Text)
+            or (isinstance(p, Clear) and p.entity == root)]  # fmt: skip
+    return rest + ([Shapes(f"{root}/drawing", lines, points)] if lines or points else [])
 
 
 def stamp_seconds(header: Any) -> float:
@@ -190,7 +221,8 @@ class TailPlots:
 
     :meth:`add` keeps three floats per message, at most ``rate_hz`` messages a second by their
     stamps (0: all; :class:`~fishtail_bringup.view_pacing.RateLimit`); :meth:`flush` hands them
-    over as :class:`Series` (one send per quantity, not one per sample).
+    over as :class:`Series` (one send per plot, not one per sample): theta3 and theta5 together,
+    theta3 alone where theta5 is not a number (mechanism 1).
     """
 
     def __init__(self, rate_hz: float = 0.0) -> None:
@@ -219,19 +251,19 @@ class TailPlots:
         return len(self._times)
 
     def flush(self) -> list[Primitive]:
-        """The gathered samples as series (theta5 only where it is a number); then empty."""
+        """The gathered samples as series; then empty."""
         if not self._times:
             return []
         times = np.array(self._times)
         self.newest_s = float(times.max())
         theta5 = np.array(self._theta5)
+        angles = np.array(self._theta3)
+        if np.isfinite(theta5).all():
+            angles = np.stack((angles, theta5), axis=-1)
         series: list[Primitive] = [
-            Series(THETA3_PLOT, times, np.array(self._theta3)),
+            Series(ANGLES_PLOT, times, angles),
             Series(CARRIER_SPEED_PLOT, times, np.array(self._speed)),
         ]
-        finite = np.isfinite(theta5)
-        if finite.any():
-            series.append(Series(THETA5_PLOT, times[finite], theta5[finite]))
         for values in (self._times, self._theta3, self._theta5, self._speed):
             values.clear()
         return series

@@ -101,3 +101,16 @@ def test_a_missing_fish_file_is_named(capsys, tmp_path):
     missing = tmp_path / "fish.yaml"
     assert main(["--motor", "dc", "--load", "air", "--fish", str(missing)]) == 2
     assert f"no parameter file {missing}" in capsys.readouterr().err
+
+
+def test_the_view_gets_only_the_pacing_options_given_before_its_ros_arguments():
+    from fishtail_bringup.run import build_parser, view_options
+    from fishtail_common.interface import VIEW_NODE
+
+    given = build_parser().parse_args(["--view", "--send-period-s", "0.5"])
+    assert view_options(given) == ["--send-period-s", "0.5"]
+    assert view_options(build_parser().parse_args(["--view"])) == []
+    supervisor = Supervisor(Path("tail.yaml"), "", [], view_options=view_options(given))
+    command = supervisor.command_for(VIEW_NODE)
+    assert command[3:6] == ["--send-period-s", "0.5", "--ros-args"]
+    assert "--send-period-s" not in supervisor.command_for(SUITE_NODES[0])

@@ -134,14 +134,28 @@ def test_tail_plots_gather_degrees_and_skip_a_missing_theta5():
     plots.add(tail_state(1.005, math.radians(-5.0), math.nan, 4.1))
     assert len(plots) == 2
     series = {s.entity: s for s in plots.flush()}
-    assert set(series) == {scene.THETA3_PLOT, scene.CARRIER_SPEED_PLOT}
-    assert isinstance(series[scene.THETA3_PLOT], Series)
-    assert series[scene.THETA3_PLOT].values == pytest.approx([10.0, -5.0])
+    assert set(series) == {scene.ANGLES_PLOT, scene.CARRIER_SPEED_PLOT}
+    assert isinstance(series[scene.ANGLES_PLOT], Series)
+    assert series[scene.ANGLES_PLOT].values == pytest.approx([10.0, -5.0])  # theta3 alone
     assert series[scene.CARRIER_SPEED_PLOT].times_s == pytest.approx([1.0, 1.005])
     assert len(plots) == 0 and plots.flush() == []
-    plots.add(tail_state(2.0, 0.1, math.radians(30.0), 4.0))
-    theta5 = next(s for s in plots.flush() if s.entity == scene.THETA5_PLOT)
-    assert theta5.values == pytest.approx([30.0])
+    plots.add(tail_state(2.0, math.radians(20.0), math.radians(30.0), 4.0))
+    angles = next(s for s in plots.flush() if s.entity == scene.ANGLES_PLOT)
+    assert angles.values.shape == (1, 2)  # theta3, theta5
+    assert angles.values[0] == pytest.approx([20.0, 30.0])
+
+
+def test_a_drawing_is_merged_into_one_entity_with_each_shape_s_colour_and_size():
+    tail = OscillatoryTail(OscillatoryGeometry())
+    specs = build_markers(tail, tail.solve(0.3), [(0.3, 0.0), (0.3, 0.01)])
+    primitives = scene.spec_primitives(specs, scene.TAIL_ROOT)
+    [drawing] = scene.merged(primitives, scene.TAIL_ROOT)
+    assert isinstance(drawing, scene.Shapes) and drawing.entity == "tail/drawing"
+    assert drawing.lines == tuple(p for p in primitives if isinstance(p, Lines))
+    assert len(drawing.lines) + len(drawing.points) == len(primitives)
+    # A DELETEALL clears the root first; deleting one marker waits for the next whole drawing.
+    cleared = scene.merged([scene.Clear("tail"), scene.Clear("tail/ring"), *primitives], "tail")
+    assert [type(p) for p in cleared] == [scene.Clear, scene.Shapes]
 
 
 @pytest.mark.parametrize(
