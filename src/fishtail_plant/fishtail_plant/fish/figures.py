@@ -31,10 +31,12 @@ from fishtail_plant.fish.model import (
     YAW_RATE,
     FinDrag,
     GeneralisedForce,
+    Recoil,
     SwimModel,
     X,
     Y,
     fin_drag,
+    fin_recoil,
 )
 from fishtail_plant.fish.model import trailing_edge_force as _trailing_edge_force
 from fishtail_plant.fish.tail_drive import TailDrive, TailSample
@@ -175,25 +177,71 @@ def fin_drag_tail_power(plate: FinDrag, tail: TailSample) -> FloatArray:
     return power
 
 
+def recoil_tail_power(
+    recoil: Recoil,
+    fish: FishParameters,
+    tail: TailSample,
+    body_acceleration: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+) -> FloatArray:
+    """Rate at which the tail works against the fin's recoil, a force at mid-chord M.
+
+    M moves in the body at (-Tx_dot, Ty_dot) - (c/2) th_dot (sin th, cos th). The recoil's
+    added-mass part needs the body's acceleration (u_dot, v_dot, r_dot); None: the body is held.
+    Held at rest its mean is zero (a derivative of a periodic quantity), but not with the body
+    moving: the tail then works against -m c w_c (th_dot - r) t, along the plate.
+    """
+    force_x, force_y = recoil.rest.x, recoil.rest.y
+    if body_acceleration is not None:
+        along = sum(
+            g * rate for g, rate in zip(recoil.direction, body_acceleration, strict=True)
+        )
+        pull = recoil.added_mass_kg * along
+        force_x = force_x - pull * recoil.direction[0]
+        force_y = force_y - pull * recoil.direction[1]
+    half_chord = 0.5 * np.asarray(fish.fin_chord_m)
+    mid_x_dot = -tail.tip_x_dot - half_chord * np.sin(tail.fin_angle) * tail.fin_rate
+    mid_y_dot = tail.tip_y_dot - half_chord * np.cos(tail.fin_angle) * tail.fin_rate
+    power: FloatArray = -(force_x * mid_x_dot + force_y * mid_y_dot)
+    return power
+
+
+def tail_thrust_and_power(
+    model: SwimModel, time_s: npt.ArrayLike, state: FloatArray
+) -> tuple[FloatArray, FloatArray, TailSample]:
+    """The tail's push on the body F_x and its power into the water at each state, and the tail.
+
+    The push: Lighthill's force and the plate's drag. The power: the tail's work against both
+    and against the recoil of a fin with chord, so that its mean is what the carrier delivers to
+    the water. The recoil's push is left out: over whole beats of periodic swimming it is the
+    change of a periodic momentum, zero.
+    """
+    flow, _, tail = model.forces(time_s, state)
+    push, power = flow.force.x, tail_power(flow.force, tail)
+    u, v, r = (state[..., column] for column in (SURGE, SWAY, YAW_RATE))
+    if model.has_fin_drag:
+        plate = fin_drag(model.fish, tail, u, v, r)
+        push, power = push + plate.force.x, power + fin_drag_tail_power(plate, tail)
+    if model.has_recoil:
+        rates = model.derivatives(time_s, state)
+        recoil = fin_recoil(model.fish, tail, model.drive.acceleration(time_s), u, v, r)
+        body_acceleration = (rates[..., SURGE], rates[..., SWAY], rates[..., YAW_RATE])
+        power = power + recoil_tail_power(recoil, model.fish, tail, body_acceleration)
+    return push, power, tail
+
+
 def tail_figures(
     model: SwimModel, trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int
 ) -> TailFigures:
     """<F_T,x>, P_tail, eta = <F_T,x> Ū / P_tail, A and St = f A / Ū over the last beats.
 
-    With a fin's drag, thrust and power include the plate's (its x force and the tail's work
-    against it); the recoil, whose mean over whole beats is nearly zero, is left out.
+    Thrust and power as :func:`tail_thrust_and_power`: with a fin plate, its drag in both, and
+    the tail's work against its recoil in the power.
 
     Raises:
         BeatAlignmentError: as :func:`beat_window`.
     """
     window = beat_window(trajectory, beat_period_s, beats)
-    flow, _, tail = model.forces(trajectory.time_s[:, None], trajectory.state)
-    force = flow.force
-    push, power = force.x, tail_power(force, tail)
-    if model.has_fin_drag:
-        u, v, r = (trajectory.state[..., column] for column in (SURGE, SWAY, YAW_RATE))
-        plate = fin_drag(model.fish, tail, u, v, r)
-        push, power = push + plate.force.x, power + fin_drag_tail_power(plate, tail)
+    push, power, tail = tail_thrust_and_power(model, trajectory.time_s[:, None], trajectory.state)
     thrust = _window_mean(push, trajectory.time_s, window)
     mean_power = _window_mean(power, trajectory.time_s, window)
     speed = beat_means(trajectory, beat_period_s, beats).mean_speed_m_s
