@@ -17,7 +17,6 @@ from fishtail_plant.fish.tail_drive import (
     constant_carrier_speed,
 )
 
-
 #: Checks 3 and 4 test Lighthill's trailing-edge force itself: the fish without the fin plate
 #: (no recoil, no plate drag), whatever the default fish has.
 LIGHTHILL_FISH = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=0.0)
