@@ -16,8 +16,8 @@ from fishtail_swim.offline.run_output import RUN_COLUMNS
 CONFIG = Path(__file__).resolve().parents[3] / "config"
 FISH = CONFIG / "fish.yaml"
 SERVO = ("--tail", "servo", "--fish", FISH)
-# A fin long enough that this fish swims straight without a bias (with the default 0.2 m fin it
-# settles into a circle whichever way its first stroke pushes it).
+# A fin long enough that this fish swims straight without a bias (without the default fish's fin
+# plate, the default 0.2 m fin settles into a circle whichever way its first stroke pushes it).
 FIN_M = 0.3
 
 
