@@ -37,7 +37,7 @@ SIM_MODULE = "fishtail_swim.nodes.sim_node"
 #: Fast, to get beats quickly (the driver's limit is 20 rad/s).
 SPEED_RAD_S = 16.0
 #: The start-up transient from rest lasts the same number of beats at any speed (the forces are
-#: quadratic in velocity): by beat 9 the library's fish is at 78 % of its cruising speed.
+#: quadratic in velocity): by beat 9 the library's fish is at 68 % of its cruising speed.
 BEATS = 10
 MAX_STEP_S = 0.0025
 STREAM_TIMEOUT_S = 40.0
@@ -46,8 +46,11 @@ RUN_TIMEOUT_S = 60.0
 REPLAY_RELATIVE = 1e-3
 #: Per-beat heading change against the replay's (about -2.6e-3 rad a beat by beat 10).
 HEADING_TOLERANCE_RAD = 2e-4
-#: The library's steady speed is reached only asymptotically; the last beat is within this of it.
-STEADY_RELATIVE = 0.3
+#: The last beats' speed against the held-body balance (figures.steady_surge_speed): the library's
+#: fish is at 54 % of it in beat 9 and 58 % in beat 10. The default fish's fin plate makes the free
+#: fish cruise 15 % below the balance and takes it more beats to get there (the plate-free fish was
+#: at 78 % and 83 %).
+STEADY_SHARE = (0.45, 0.7)
 
 
 @pytest.fixture
@@ -155,7 +158,7 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
     drive = EngineTailDrive(tail, constant_carrier_speed(np.array([SPEED_RAD_S])))
     steady = float(steady_surge_speed(drive, fish, period)[0])
     assert newest.beat_frequency_hz == pytest.approx(1.0 / period, rel=0.02)
-    assert newest.mean_speed_m_s == pytest.approx(steady, rel=STEADY_RELATIVE)
+    assert STEADY_SHARE[0] * steady < newest.mean_speed_m_s < STEADY_SHARE[1] * steady
     assert newest.body_lengths_per_s == pytest.approx(newest.mean_speed_m_s / 0.5)
     # Turning right on a wide circle once the start-up has passed, as the library's Cardan tail.
     assert newest.heading_change_rad < 0.0 and -1000.0 < newest.turning_radius_m < 0.0

@@ -52,8 +52,10 @@ LONGEST_BURST = 4
 POSITION_TOLERANCE_M = 1e-3
 VELOCITY_TOLERANCE = 5e-4
 #: The late fish against the reference, u, v and r: what it cannot know is how the motor spun up
-#: (1.1 %, 7 % and 4.5 % here: sway and yaw rate remember it longest), which fades.
-LATE_TOLERANCE = np.array([0.02, 0.12, 0.08])
+#: (1.2 %, 7 % and 12 % here: sway and yaw rate remember it longest), which fades. The default
+#: fish's fin recoil makes that memory last longer: its transient falls 30-fold in 20 beats where
+#: the plate-free fish's fell 100-fold (yaw rate 4.5 % off without the plate).
+LATE_TOLERANCE = np.array([0.02, 0.12, 0.16])
 LATE_FINAL_SURGE_TOLERANCE = 0.005
 LAST_SECOND_SAMPLES = 100
 #: Of the samples sent, the share whose odometry must come back to compare (best effort).

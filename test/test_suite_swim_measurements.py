@@ -61,8 +61,10 @@ FREE_BODY_RELATIVE = 0.01
 #: K_D from yaw rates of a fish turning on a 68 m circle: its yaw rates are measured to about 2 %
 #: (seen: K_D 0.1086 and 0.1078 for 0.1042).
 FIT_YAW_DAMPING = 0.1
-#: The held body (sway and yaw held) swims a few % slower than the free one (docs: ~5 %).
-HELD_BODY_RELATIVE = 0.08
+#: The free body against the held body (sway and yaw held): with the default fish's fin plate the
+#: free fish swims slower, as the plate meets its sway and yaw too (docs: -15 % for the default
+#: fish; this one, with linear damping, -22 % at 16 rad/s). Without the plate it was ~5 % faster.
+FREE_OVER_HELD = (0.7, 0.9)
 #: Each segment's C_D: the speed falls by only about 0.4 % per 1 % of C_D for this fish (its
 #: linear damping takes a share of the drag), so FREE_BODY_RELATIVE in the speed is ~2.5 % in C_D.
 #: Seen: 0.503, 0.497, 0.502.
@@ -207,7 +209,7 @@ def test_steady_segments_of_the_simulator_are_the_free_fishs_speeds(
             tail, constant_carrier_speed(np.array([segment.carrier_speed_rad_s]))
         )
         held = float(steady_surge_speed(drive, fish, 2 * math.pi / segment.carrier_speed_rad_s)[0])
-        assert segment.speed_m_s == pytest.approx(held, rel=HELD_BODY_RELATIVE), where
+        assert FREE_OVER_HELD[0] * held < segment.speed_m_s < FREE_OVER_HELD[1] * held, where
         # Turning right on a wide circle, as the library's Cardan tail.
         assert segment.yaw_rate_rad_s < 0.0
         assert segment.yaw_rate_rad_s == pytest.approx(yaw_rates[1], rel=YAW_RELATIVE), where

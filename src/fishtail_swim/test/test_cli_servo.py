@@ -16,8 +16,8 @@ from fishtail_swim.offline.run_output import RUN_COLUMNS
 CONFIG = Path(__file__).resolve().parents[3] / "config"
 FISH = CONFIG / "fish.yaml"
 SERVO = ("--tail", "servo", "--fish", FISH)
-# A fin long enough that this fish swims straight without a bias (with the default 0.2 m fin it
-# settles into a circle whichever way its first stroke pushes it).
+# A fin long enough that this fish swims straight without a bias (without the default fish's fin
+# plate, the default 0.2 m fin settles into a circle whichever way its first stroke pushes it).
 FIN_M = 0.3
 
 
@@ -94,8 +94,9 @@ def test_servo_bias_turns_the_fish_its_way(swim_cli, tmp_path, bias, turn):
     table = np.loadtxt(output, delimiter=",", skiprows=1)
     heading = table[-1, 3]
     if turn == "none":
-        # The first strokes yaw it a little; then it holds its heading.
-        assert abs(radius) > 1e3 and abs(heading) < 0.1
+        # The first strokes yaw it (0.32 rad with the default fin plate, whose drag takes a
+        # bigger bite of them; 0.1 without); then it holds its heading.
+        assert abs(radius) > 1e3 and abs(heading) < 0.4
     else:
         assert f"body lengths, {turn})" in out
         # > 0 left (counter-clockwise seen from above): the heading grows.

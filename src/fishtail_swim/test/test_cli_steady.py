@@ -72,7 +72,7 @@ def test_text_table_has_a_heading_and_a_row_per_speed(swim_cli):
     assert len(lines) == 3
 
 
-def test_check_finds_the_free_body_within_a_few_percent_for_mechanism_1(swim_cli):
+def test_check_finds_the_free_body_for_mechanism_1(swim_cli):
     status, out, _ = swim_cli(
         "steady", "--config", OSCILLATORY, "--fish", FISH, "--csv", "--speeds", "4",
         "--check",
@@ -84,6 +84,7 @@ def test_check_finds_the_free_body_within_a_few_percent_for_mechanism_1(swim_cli
     held = float(checked[0]["held_speed_m_s"])
     free = float(checked[0]["free_speed_m_s"])
     assert held == float(balance[0]["speed_m_s"])
-    # docs/swimming-dynamics.md: the free body is +5.0 % faster for mechanism 1.
-    assert abs(free / held - 1.0) < 0.08
+    # docs/swimming-dynamics.md: with the default fin plate the free body is 15 % slower for
+    # mechanism 1 (+5.0 % without it): the plate meets the body's sway and yaw as well.
+    assert -0.18 < free / held - 1.0 < -0.12
     assert abs(float(checked[0]["change_percent"]) - 100.0 * (free / held - 1.0)) < 1e-6

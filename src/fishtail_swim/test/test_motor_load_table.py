@@ -10,7 +10,9 @@ import pytest
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, UndulatoryGeometry
 from fishtail_kinematics.engine.mechanisms import make_tail
+from fishtail_plant.fish.figures import held_fish
 from fishtail_plant.fish.fish import FishParameters
+from fishtail_plant.fish.tail_drive import EngineTailDrive, constant_carrier_speed
 from fishtail_plant.linkage_load.carrier_load import carrier_load
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
 from fishtail_swim.offline.inputs import Swimmer
@@ -22,6 +24,8 @@ from fishtail_swim.offline.motor_load_table import (
 from fishtail_swim.offline.steady_table import steady_rows
 
 SPEEDS = np.array([4.0, 8.0, 16.0])
+#: The fish without the fin plate: Lighthill's force alone, whose power held at rest averages out.
+LIGHTHILL_FISH = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=0.0)
 TAILS = [make_tail(OscillatoryGeometry()), make_tail(UndulatoryGeometry())]
 IDS = ["oscillatory", "undulatory"]
 
@@ -53,11 +57,21 @@ def test_swimming_power_is_the_steady_tables_tail_power(tail, rows):
     assert np.all(rows.swimming_mean_power_w > 0.0)
 
 
-def test_held_at_rest_the_mean_power_is_zero(tail, rows):
+def test_held_at_rest_the_mean_power_is_zero_without_a_plate(tail):
+    rows = motor_load_rows(tail, LinkInertia(), LIGHTHILL_FISH, SPEEDS)
     scale = rows.rest_peak_torque_n_m * SPEEDS
     assert np.all(np.abs(rows.rest_mean_power_w) < 1e-12 * scale)
     if tail.fin_joint is None:
         np.testing.assert_allclose(rows.rest_peak_torque_n_m, rows.air_peak_torque_n_m, rtol=1e-12)
+
+
+def test_held_at_rest_the_default_fin_plate_takes_the_held_fishs_power(tail, rows):
+    # The carrier's mean power is the tail's power held still (figures.held_fish): the plate's
+    # drag dissipates it; Lighthill's force and the recoil average out.
+    drive = EngineTailDrive(tail, constant_carrier_speed(SPEEDS))
+    held = held_fish(drive, FishParameters(), 2.0 * np.pi / SPEEDS)
+    assert np.all(held.tail_power_w > 0.0)
+    np.testing.assert_allclose(rows.rest_mean_power_w, held.tail_power_w, rtol=1e-6)
 
 
 def test_rms_never_exceeds_peak(rows):

@@ -34,11 +34,13 @@ FISH = CONFIG / "fish.yaml"
 GEOMETRIES = {"oscillatory": OscillatoryGeometry(), "undulatory": UndulatoryGeometry()}
 #: Stall torque and no-load speed at the carrier of a motor far too weak for mechanism 2 swimming.
 WEAK = ("--stall-torque-n-m", "0.05", "--no-load-speed-rpm", "100")
+#: The fish without the fin plate: Lighthill's force alone.
+LIGHTHILL_FISH = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=0.0)
 
 
-def tail_load(mechanism, surroundings, inertia=None):
+def tail_load(mechanism, surroundings, inertia=None, fish=None):
     tail = make_tail(GEOMETRIES[mechanism])
-    return TailLoad(tail, inertia or LinkInertia(), FishParameters(), surroundings)
+    return TailLoad(tail, inertia or LinkInertia(), fish or FishParameters(), surroundings)
 
 
 # ---- hand-derived cases
@@ -146,12 +148,10 @@ def test_sustained_speed_falls_as_the_load_grows(mechanism):
         ).run.mean_speed_rad_s
         for surroundings in ("none", "air", "water_held", "water_swimming")
     }
-    assert speeds["none"] > speeds["air"] >= speeds["water_held"] > speeds["water_swimming"]
-    if mechanism == "oscillatory":
-        # Held at rest, mechanism 1's fin force runs through its pivot: no torque from the water.
-        assert speeds["water_held"] == pytest.approx(speeds["air"], rel=1e-9)
-    else:
-        assert speeds["air"] > 1.005 * speeds["water_held"]
+    assert speeds["none"] > speeds["air"] > speeds["water_held"] > speeds["water_swimming"]
+    # Held at rest the default fin plate's drag loads either tail (without the plate mechanism
+    # 1's fin force runs through its pivot: test_held_in_water_a_fin_plate_asks_...).
+    assert speeds["air"] > 1.005 * speeds["water_held"]
     assert speeds["water_swimming"] < 0.7 * speeds["air"]
 
 
@@ -176,10 +176,11 @@ def test_the_constant_speed_limit_is_a_lower_bound(mechanism, surroundings):
 
 @pytest.mark.parametrize("mechanism", ["oscillatory", "undulatory"])
 def test_with_a_heavy_rotor_the_run_agrees_with_the_mean_limit(mechanism):
-    # A rotor 300 times the default's holds the ripple under 2 % of the speed; the run's mean
-    # then agrees with the flywheel limit to 0.05 %. The default rotor ripples 30-140 % and runs
-    # up to 10 % faster than that limit (the peaks met at a lower speed cost less).
-    heavy = DcMotorParameters(rotor_inertia_kg_m2=9e-4)
+    # A rotor 1700 times the default's holds the ripple under 1 % of the speed (300 times left
+    # 2.8 % with the default fish's fin plate, whose drag makes mechanism 2's load peakier); the
+    # run's mean then agrees with the flywheel limit to 0.05 %. The default rotor ripples and
+    # runs up to 14 % faster than that limit (the peaks met at a lower speed cost less).
+    heavy = DcMotorParameters(rotor_inertia_kg_m2=5e-3)
     load = tail_load(mechanism, "water_swimming")
     sizing = size_motor(heavy, load)
     run = sizing.run
@@ -262,12 +263,13 @@ def test_motor_prints_the_table_the_limits_and_writes_a_png(swim_cli, tmp_path):
     lines = out.splitlines()
     header = next(i for i, line in enumerate(lines) if line.startswith("f [Hz]"))
     assert [line.split()[0] for line in lines[header + 1 : header + 4]] == ["1.00", "2.00", "3.00"]
-    assert lines[header + 3].endswith("over the supply")  # 3 Hz needs 12.6 V at the peak
-    assert "constant speed (V peak = supply):           2.90 Hz" in out
-    assert "sustains 3.75 Hz at full duty (12 V, PWM 255)" in out
+    assert lines[header + 3].endswith("over the supply")  # 3 Hz needs 17.1 V at the peak
+    assert "constant speed (V peak = supply):           2.39 Hz" in out
+    assert "sustains 3.37 Hz at full duty (12 V, PWM 255)" in out
     held = next(i for i, line in enumerate(lines) if line.startswith("f [Hz]  held thrust [N]"))
     assert [line.split()[0] for line in lines[held + 1 : held + 4]] == ["1.00", "2.00", "3.00"]
-    assert lines[held + 1].split()[2:] == ["0.0000", "0.0000"]  # no fin plate: no held power
+    # Mechanism 1 held still: all its power goes into the default fin plate's drag.
+    assert lines[held + 1].split()[2:] == ["0.0762", "0.0762"]
     assert f"wrote {figure}" in out
     with Image.open(figure) as image:
         assert image.format == "PNG"
@@ -353,7 +355,8 @@ def test_a_run_that_does_not_settle_gives_no_verdict():
     # Three revolutions cannot settle (the test needs four); too few steps for four revolutions.
     with pytest.raises(UnsettledRunError, match="did not settle: 3 revolutions"):
         size_motor(DcMotorParameters(), load, limits=RunLimits(max_revolutions=3))
-    with pytest.raises(UnsettledRunError, match="would need about 1.0[0-9]e\\+03 steps"):
+    # Four revolutions at the loaded tail's 20.3 rad/s, 1 ms steps.
+    with pytest.raises(UnsettledRunError, match="would need about 1.2[0-9]e\\+03 steps"):
         size_motor(DcMotorParameters(), load, limits=RunLimits(max_steps=500))
 
 
@@ -362,7 +365,7 @@ def test_held_in_water_a_fin_plate_asks_the_oscillating_tail_for_power():
     tail = make_tail(OscillatoryGeometry())
     plate = FishParameters(fin_chord_m=0.06, fin_normal_drag_coefficient=1.2)
     held = {}
-    for name, fish in (("bare", FishParameters()), ("plate", plate)):
+    for name, fish in (("bare", LIGHTHILL_FISH), ("plate", plate)):
         load = TailLoad(tail, LinkInertia(), fish, "water_held")
         held[name] = size_motor(DcMotorParameters(), load, (1.0, 2.0))
     bare, with_plate = held["bare"].held, held["plate"].held

@@ -16,6 +16,8 @@ from fishtail_swim.offline.steady_table import steady_rows
 SPEEDS = np.array([4.0, 8.0])
 PLATE = FishParameters(fin_chord_m=0.06, fin_normal_drag_coefficient=1.2,
                        surge_linear_damping_kg_s=0.5)  # fmt: skip
+#: The fish without the fin plate: Lighthill's force alone.
+LIGHTHILL_FISH = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=0.0)
 
 
 @pytest.mark.parametrize("geometry", [OscillatoryGeometry(), UndulatoryGeometry()])
@@ -29,7 +31,7 @@ def test_with_a_plate_the_thrust_in_the_table_balances_the_hulls_drag(geometry):
 
 def test_held_columns_are_the_held_fish_and_zero_power_without_a_plate():
     tail = make_tail(OscillatoryGeometry())
-    bare = steady_rows(Swimmer(FishParameters(), tail), SPEEDS)
+    bare = steady_rows(Swimmer(LIGHTHILL_FISH, tail), SPEEDS)
     assert np.all(bare.held_tail_power_w == 0.0)
     assert np.all(bare.held_thrust_n > 0.0)
     plate = steady_rows(Swimmer(PLATE, tail), SPEEDS)

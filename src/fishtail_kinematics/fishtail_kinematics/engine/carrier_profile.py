@@ -118,7 +118,14 @@ class CarrierSpeedProfile:
         omega, depth, phase, scale = self.mean_speed_rad_s, self.depth, self.phase_rad, self._scale
 
         def carrier(time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-            nu = start_phase + omega * (np.asarray(time_s, dtype=float) - start_time_s)
+            elapsed = np.asarray(time_s, dtype=float) - start_time_s
+            if depth == 0.0:
+                # Unmodulated the phase means nothing: the constant speed itself, not its round
+                # trip through the phase (a few ulps off, which the recoil's tail accelerations,
+                # differences over 1e-4 rad, would make depend on the phase).
+                angle = start_angle_rad + omega * elapsed
+                return angle, np.full_like(angle, omega), np.zeros_like(angle)
+            nu = start_phase + omega * elapsed
             angle = self.angle_at_phase(nu)
             chi = angle - phase
             speed = scale * (1.0 + depth * np.cos(chi))

@@ -31,10 +31,12 @@ from fishtail_plant.fish.model import (
     YAW_RATE,
     FinDrag,
     GeneralisedForce,
+    Recoil,
     SwimModel,
     X,
     Y,
     fin_drag,
+    fin_recoil,
 )
 from fishtail_plant.fish.model import trailing_edge_force as _trailing_edge_force
 from fishtail_plant.fish.tail_drive import TailDrive, TailSample
@@ -43,6 +45,9 @@ from fishtail_plant.fish.tail_drive import TailDrive, TailSample
 _ALIGNMENT_TOLERANCE = 1e-6
 #: Samples per beat of the cycle means (a periodic trapezoid rule: spectrally accurate).
 CYCLE_SAMPLES = 128
+#: The same with a fin plate's drag: |w| w has a kink where w changes sign, so the rule is no
+#: longer spectral (at 128 samples the balance speed is some 1e-7 off; at 1024, 1e-10).
+FIN_DRAG_CYCLE_SAMPLES = 1024
 # Bracket doublings and bisections of the steady speed with a fin's drag: 2^-64 of the bracket.
 _BRACKET_DOUBLINGS = 60
 _BISECTIONS = 64
@@ -175,25 +180,71 @@ def fin_drag_tail_power(plate: FinDrag, tail: TailSample) -> FloatArray:
     return power
 
 
+def recoil_tail_power(
+    recoil: Recoil,
+    fish: FishParameters,
+    tail: TailSample,
+    body_acceleration: tuple[FloatArray, FloatArray, FloatArray] | None = None,
+) -> FloatArray:
+    """Rate at which the tail works against the fin's recoil, a force at mid-chord M.
+
+    M moves in the body at (-Tx_dot, Ty_dot) - (c/2) th_dot (sin th, cos th). The recoil's
+    added-mass part needs the body's acceleration (u_dot, v_dot, r_dot); None: the body is held.
+    Held at rest its mean is zero (a derivative of a periodic quantity), but not with the body
+    moving: the tail then works against -m c w_c (th_dot - r) t, along the plate.
+    """
+    force_x, force_y = recoil.rest.x, recoil.rest.y
+    if body_acceleration is not None:
+        along = sum(
+            g * rate for g, rate in zip(recoil.direction, body_acceleration, strict=True)
+        )
+        pull = recoil.added_mass_kg * along
+        force_x = force_x - pull * recoil.direction[0]
+        force_y = force_y - pull * recoil.direction[1]
+    half_chord = 0.5 * np.asarray(fish.fin_chord_m)
+    mid_x_dot = -tail.tip_x_dot - half_chord * np.sin(tail.fin_angle) * tail.fin_rate
+    mid_y_dot = tail.tip_y_dot - half_chord * np.cos(tail.fin_angle) * tail.fin_rate
+    power: FloatArray = -(force_x * mid_x_dot + force_y * mid_y_dot)
+    return power
+
+
+def tail_thrust_and_power(
+    model: SwimModel, time_s: npt.ArrayLike, state: FloatArray
+) -> tuple[FloatArray, FloatArray, TailSample]:
+    """The tail's push on the body F_x and its power into the water at each state, and the tail.
+
+    The push: Lighthill's force and the plate's drag. The power: the tail's work against both
+    and against the recoil of a fin with chord, so that its mean is what the carrier delivers to
+    the water. The recoil's push is left out: over whole beats of periodic swimming it is the
+    change of a periodic momentum, zero.
+    """
+    flow, _, tail = model.forces(time_s, state)
+    push, power = flow.force.x, tail_power(flow.force, tail)
+    u, v, r = (state[..., column] for column in (SURGE, SWAY, YAW_RATE))
+    if model.has_fin_drag:
+        plate = fin_drag(model.fish, tail, u, v, r)
+        push, power = push + plate.force.x, power + fin_drag_tail_power(plate, tail)
+    if model.has_recoil:
+        rates = model.derivatives(time_s, state)
+        recoil = fin_recoil(model.fish, tail, model.drive.acceleration(time_s), u, v, r)
+        body_acceleration = (rates[..., SURGE], rates[..., SWAY], rates[..., YAW_RATE])
+        power = power + recoil_tail_power(recoil, model.fish, tail, body_acceleration)
+    return push, power, tail
+
+
 def tail_figures(
     model: SwimModel, trajectory: Trajectory, beat_period_s: npt.ArrayLike, beats: int
 ) -> TailFigures:
     """<F_T,x>, P_tail, eta = <F_T,x> Ū / P_tail, A and St = f A / Ū over the last beats.
 
-    With a fin's drag, thrust and power include the plate's (its x force and the tail's work
-    against it); the recoil, whose mean over whole beats is nearly zero, is left out.
+    Thrust and power as :func:`tail_thrust_and_power`: with a fin plate, its drag in both, and
+    the tail's work against its recoil in the power.
 
     Raises:
         BeatAlignmentError: as :func:`beat_window`.
     """
     window = beat_window(trajectory, beat_period_s, beats)
-    flow, _, tail = model.forces(trajectory.time_s[:, None], trajectory.state)
-    force = flow.force
-    push, power = force.x, tail_power(force, tail)
-    if model.has_fin_drag:
-        u, v, r = (trajectory.state[..., column] for column in (SURGE, SWAY, YAW_RATE))
-        plate = fin_drag(model.fish, tail, u, v, r)
-        push, power = push + plate.force.x, power + fin_drag_tail_power(plate, tail)
+    push, power, tail = tail_thrust_and_power(model, trajectory.time_s[:, None], trajectory.state)
     thrust = _window_mean(push, trajectory.time_s, window)
     mean_power = _window_mean(power, trajectory.time_s, window)
     speed = beat_means(trajectory, beat_period_s, beats).mean_speed_m_s
@@ -234,23 +285,28 @@ def cycle_mean_tail_force(
     fish: FishParameters,
     surge_speed_m_s: npt.ArrayLike,
     beat_period_s: npt.ArrayLike,
-    samples: int = CYCLE_SAMPLES,
+    samples: int | None = None,
 ) -> FloatArray:
     """<F_T,x> over one beat with the body held at u = U, v = r = 0 (one element per fish).
 
     Lighthill's force and the fin plate's drag. The recoil of a fin with chord is a time
     derivative of a periodic quantity when the body is held, so its mean is zero and it is left
-    out.
+    out. ``samples`` per beat: by default :func:`cycle_samples_for` the fish.
     """
-    tail = _cycle_samples(drive, beat_period_s, samples)
+    tail = _cycle_samples(drive, beat_period_s, samples or cycle_samples_for(fish))
     return np.asarray(_tail_force_x(fish, tail, surge_speed_m_s).mean(axis=0), dtype=float)
+
+
+def cycle_samples_for(fish: FishParameters) -> int:
+    """Samples per beat for the cycle means of ``fish``: more when its plate's drag has a kink."""
+    return FIN_DRAG_CYCLE_SAMPLES if fish.has_fin_drag else CYCLE_SAMPLES
 
 
 def steady_surge_speed(
     drive: TailDrive,
     fish: FishParameters,
     beat_period_s: npt.ArrayLike,
-    samples: int = CYCLE_SAMPLES,
+    samples: int | None = None,
 ) -> FloatArray:
     """The U > 0 with <F_T,x>(U) = ½ rho S C_D U² + X_u U (sway and yaw held), one per fish.
 
@@ -259,10 +315,12 @@ def steady_surge_speed(
     drag, the balance is a quadratic equation: no iteration. The plate's drag |w| w is not a
     polynomial in U: then the balance is bracketed and bisected, one bracket per fish.
 
+    ``samples`` per beat: by default :func:`cycle_samples_for` the fish.
+
     Raises:
         NoSteadySpeedError: a fish whose cycle-mean thrust never balances its drag at U > 0.
     """
-    tail = _cycle_samples(drive, beat_period_s, samples)
+    tail = _cycle_samples(drive, beat_period_s, samples or cycle_samples_for(fish))
     lighthill = fish if not fish.has_fin_drag else dataclasses.replace(
         fish, fin_normal_drag_coefficient=0.0
     )
@@ -348,13 +406,14 @@ def held_fish(
     drive: TailDrive,
     fish: FishParameters,
     beat_period_s: npt.ArrayLike,
-    samples: int = CYCLE_SAMPLES,
+    samples: int | None = None,
 ) -> HeldFish:
     """Thrust and tail power of the fish held at rest, u = v = r = 0, over one beat.
 
     The recoil's mean force and power vanish over a beat (derivatives of periodic quantities).
+    ``samples`` per beat: by default :func:`cycle_samples_for` the fish.
     """
-    tail = _cycle_samples(drive, beat_period_s, samples)
+    tail = _cycle_samples(drive, beat_period_s, samples or cycle_samples_for(fish))
     zero = np.zeros_like(tail.tip_x)
     flow = _trailing_edge_force(fish, tail, zero, zero, zero)
     plate = fin_drag(fish, tail, zero, zero, zero)

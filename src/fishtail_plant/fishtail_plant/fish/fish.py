@@ -83,10 +83,10 @@ FISH_PARAMETERS: tuple[ParameterSpec, ...] = (
                   "l_O: distance from the centre of mass C back to the ring-gear centre O", "m",
                   0.0, 20.0),
     FIN_SPAN,
-    ParameterSpec("fin_chord_m", 0.0,
+    ParameterSpec("fin_chord_m", 0.06,
                   "chord c of the rigid fin plate forward of the trailing edge (0: no recoil or "
                   "resistive drag)", "m", 0.0, 5.0),
-    ParameterSpec("fin_normal_drag_coefficient", 0.0,
+    ParameterSpec("fin_normal_drag_coefficient", 1.2,
                   "C_n of the fin plate's quasi-steady cross-flow drag, per unit area (0: none)",
                   "", 0.0, 10.0),
 )  # fmt: skip

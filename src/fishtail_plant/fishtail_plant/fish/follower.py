@@ -20,7 +20,7 @@ from fishtail_kinematics.engine.input_guard import JUMP_SPEED_MARGIN, plausible_
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_plant.errors import SwimInputError
 from fishtail_plant.fish.beats import BeatAccumulator, BeatFigures
-from fishtail_plant.fish.figures import tail_power
+from fishtail_plant.fish.figures import tail_thrust_and_power
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.integrator import Stepper
 from fishtail_plant.fish.model import PSI, STATE_SIZE, SURGE, SwimModel, X, Y
@@ -364,9 +364,9 @@ class SwimFollower:
         self, time_s: FloatArray, states: FloatArray
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Thrust, tail power and tip y at each of ``time_s`` (K,) for ``states`` (K, 1, 6)."""
-        flow, _, tail = self.model.forces(time_s[:, None], states)
-        power = tail_power(flow.force, tail)
-        return flow.force.x[:, 0], power[:, 0], np.broadcast_to(tail.tip_y, power.shape)[:, 0]
+        # The library's figures (figures.tail_figures) sample by sample: plate and recoil too.
+        push, power, tail = tail_thrust_and_power(self.model, time_s[:, None], states)
+        return push[:, 0], power[:, 0], np.broadcast_to(tail.tip_y, power.shape)[:, 0]
 
     def _integrate(
         self, state: FloatArray, beat: BeatAccumulator | None, start_s: float, end_s: float

@@ -138,10 +138,14 @@ class EngineTailDrive:
         self, angle: FloatArray, speed: FloatArray, carrier_acceleration: FloatArray
     ) -> TailAcceleration:
         """:meth:`acceleration` at carrier angles, speeds and accelerations (broadcast)."""
-        unit = np.ones_like(np.asarray(angle, dtype=float))
-        ahead = self._pose_and_rates(angle + _ANGLE_STEP_RAD, unit)
-        behind = self._pose_and_rates(angle - _ANGLE_STEP_RAD, unit)
-        here = self._pose_and_rates(angle, unit)
+        # The linkage repeats every revolution: difference about the angle within it, or a
+        # carrier that has turned for long (10^8 revolutions) leaves phi ± h a rounding of
+        # ~1e-7 rad apart from the step of 1e-4 and the curvature 1e-3 wrong.
+        phase = np.remainder(np.asarray(angle, dtype=float), 2.0 * np.pi)
+        unit = np.ones_like(phase)
+        ahead = self._pose_and_rates(phase + _ANGLE_STEP_RAD, unit)
+        behind = self._pose_and_rates(phase - _ANGLE_STEP_RAD, unit)
+        here = self._pose_and_rates(phase, unit)
         scale = 0.5 / _ANGLE_STEP_RAD
         result = []
         for rate_index in (2, 3, 5):

@@ -40,9 +40,11 @@ def swimming_speed_per_carrier_speed(tail: Tail, fish: FishParameters) -> float:
 class TailLoad:
     """The carrier's load for a motor model: ``torque(phi, omega)`` and ``inertia(phi)``.
 
-    The load torque is exactly omega² c(phi). A motor model asks for it thousands of times a
-    simulated second, one angle at a time, too often for the engine; so c and J are solved once
-    on :data:`TABLE_SIZE` angles and interpolated (docs/motor-load.md).
+    The load torque is exactly omega² c(phi) + omega |omega| d(phi): the links' inertia, Lighthill's
+    force and the recoil are quadratic in the velocities, the fin plate's drag -k |w| w changes
+    sign with them (d = 0 without the plate). A motor model asks for it thousands of times a
+    simulated second, one angle at a time, too often for the engine; so c, d and J are solved
+    once on :data:`TABLE_SIZE` angles and interpolated (docs/motor-load.md).
     """
 
     def __init__(
@@ -67,6 +69,9 @@ class TailLoad:
             swimming_speed_per_carrier_speed(tail, fish) if swimming else 0.0
         )
         angles = np.arange(TABLE_SIZE) * (2.0 * math.pi / TABLE_SIZE)
+        #: Whether the torque has the plate's part that changes sign with omega.
+        self._has_odd_part = surroundings.startswith("water") and fish.has_fin_drag
+        per_speed_odd = np.zeros(TABLE_SIZE)
         if surroundings == "none":
             per_speed_squared = np.zeros(TABLE_SIZE)
             reduced = np.zeros(TABLE_SIZE)
@@ -74,23 +79,39 @@ class TailLoad:
             exact = self.exact(angles, 1.0)
             per_speed_squared = np.asarray(exact.torque_n_m, dtype=float)
             reduced = np.asarray(exact.reduced_inertia_kg_m2, dtype=float)
-            if surroundings.startswith("water"):
-                # The fin plate's added mass moves with the tail: inertia, not load.
-                reduced = reduced + fin_added_inertia(tail, fish, angles)
+            if self._has_odd_part:
+                # Turned backwards every velocity changes sign (the towed fish's too): the
+                # quadratic terms stay, the plate's drag turns round. Half the sum and half the
+                # difference of the two directions are c and d.
+                backwards = np.asarray(self.exact(angles, -1.0).torque_n_m, dtype=float)
+                per_speed_squared, per_speed_odd = (
+                    0.5 * (per_speed_squared + backwards),
+                    0.5 * (per_speed_squared - backwards),
+                )
         # Plain lists: indexing them from Python is several times cheaper than numpy scalars.
         self._torque_table = _periodic_padding(per_speed_squared)
+        self._odd_table = _periodic_padding(per_speed_odd)
         self._inertia_table = _periodic_padding(reduced)
 
     def exact(self, phi_rad: npt.ArrayLike, omega_rad_s: npt.ArrayLike) -> CarrierLoad:
-        """The engine's load at (phi, omega), phi'' = 0, arrays or floats (what the table holds)."""
+        """The engine's load at (phi, omega), phi'' = 0, arrays or floats (what the table holds).
+
+        In water J(phi) includes the fin plate's added mass, which moves with the tail: inertia,
+        not load (the recoil's part in phi'').
+        """
         if self.surroundings.startswith("water"):
             surge = self.speed_per_carrier_speed_m_rad * np.asarray(omega_rad_s, dtype=float)
-            return carrier_load_in_water(self.model, self.fish, phi_rad, omega_rad_s, 0.0, surge)
+            load = carrier_load_in_water(self.model, self.fish, phi_rad, omega_rad_s, 0.0, surge)
+            added = fin_added_inertia(self.model.tail, self.fish, phi_rad)
+            return load._replace(reduced_inertia_kg_m2=load.reduced_inertia_kg_m2 + added)
         return self.model.load(phi_rad, omega_rad_s)
 
     def torque(self, phi_rad: float, omega_rad_s: float) -> float:
         """The torque [N m] the carrier gives the load at phi, omega, apart from J(phi) phi''."""
-        return omega_rad_s * omega_rad_s * _interpolate(self._torque_table, phi_rad)
+        torque = omega_rad_s * omega_rad_s * _interpolate(self._torque_table, phi_rad)
+        if self._has_odd_part:
+            torque += omega_rad_s * abs(omega_rad_s) * _interpolate(self._odd_table, phi_rad)
+        return torque
 
     def inertia(self, phi_rad: float) -> float:
         """The linkage's inertia reduced to the carrier, J(phi) [kg m²] (0 with no load)."""

@@ -1,5 +1,7 @@
 """The five checks the swimming model must pass (docs/swimming-dynamics.md, "Checks")."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,10 @@ from fishtail_plant.fish.tail_drive import (
     SinusoidalTailDrive,
     constant_carrier_speed,
 )
+
+#: Checks 3 and 4 test Lighthill's trailing-edge force itself: the fish without the fin plate
+#: (no recoil, no plate drag), whatever the default fish has.
+LIGHTHILL_FISH = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=0.0)
 
 
 def _first(trajectory, records):
@@ -92,7 +98,11 @@ def _work_and_energy(model, step_s, steps):
 
 @pytest.mark.parametrize("mechanism", ["sinusoid", "undulatory"])
 def test_check3_tail_work_equals_kinetic_energy_without_drag(mechanism):
-    fish = FishParameters(drag_coefficient=0.0, lift_coefficient_per_rad=0.0, yaw_damping_kg_m2=0.0)
+    # The work is Lighthill's force's alone: no plate, whose drag dissipates and whose recoil
+    # the sum below leaves out.
+    fish = dataclasses.replace(
+        LIGHTHILL_FISH, drag_coefficient=0.0, lift_coefficient_per_rad=0.0, yaw_damping_kg_m2=0.0
+    )
     if mechanism == "sinusoid":
         # Not antisymmetric (alpha0 != 0), so sway, yaw and the Munk moment all take part.
         drive = SinusoidalTailDrive(0.35, 0.15, 0.3, 2.0 * np.pi)
@@ -115,7 +125,7 @@ def test_check3_tail_work_equals_kinetic_energy_without_drag(mechanism):
 def test_check4_mean_thrust_converges_to_small_amplitude_theory():
     from fishtail_plant.fish.figures import cycle_mean_tail_force
 
-    fish = FishParameters()
+    fish = LIGHTHILL_FISH  # the theory is Lighthill's small-amplitude thrust
     speed = 0.3
     errors = []
     amplitudes = (0.2, 0.1, 0.05)
@@ -145,6 +155,8 @@ def test_check5_cycle_average_balance_matches_time_stepping(geometry, request, r
     free_run = request.getfixturevalue(f"{geometry.mechanism}_free_run")
     free = beat_means(free_run[2], free_run[3], beats=2).mean_speed_m_s[0]
     assert disagreement[0] < 1e-3
-    # The free body's sway and yaw change the speed by several per cent, not by its size
-    # (docs/swimming-dynamics.md tabulates both): the held-body balance is a usable estimate.
-    assert 0.0 < free and abs(free / balanced[0] - 1.0) < 0.25
+    # The free body's sway and yaw change the speed (docs/swimming-dynamics.md tabulates both):
+    # without the plate by +5 % and -8 %; the default fish's plate meets the body's yawing and
+    # swaying as well as the tail's stroke, which costs the free body more: -15 % and -30 %.
+    # The held-body balance stays an estimate of the right size, not a prediction.
+    assert 0.0 < free and abs(free / balanced[0] - 1.0) < 0.35

@@ -79,7 +79,11 @@ def test_without_numba_the_numpy_loop_gives_the_same_run(monkeypatch: pytest.Mon
     monkeypatch.setattr(fused, "AVAILABLE", False)
     fallback = simulate(model, 3, STEP_S, 200, record_every=50)
     np.testing.assert_array_equal(compiled.time_s, fallback.time_s)
-    np.testing.assert_allclose(compiled.state, fallback.state, rtol=0, atol=1e-13)
+    # The default fish's fin has a chord: its recoil needs the tail's accelerations, central
+    # differences over 1e-4 rad of the engine's rates, which magnify the rounding of the
+    # engine's float and array paths some 5000-fold. The compiled-loop test's bound, then.
+    scale = np.abs(fallback.state).max()
+    np.testing.assert_allclose(compiled.state, fallback.state, rtol=0, atol=1e-11 * scale)
 
 
 def test_blocks_and_records_do_not_change_the_run(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -34,6 +34,8 @@ from fishtail_plant.fish.tail_drive import (
 from fishtail_plant.values import FishConfigError, load_fish_parameters, read_fish_values
 
 CONFIG = Path(__file__).resolve().parents[3] / "fishtail_bringup" / "config" / "fish.yaml"
+#: Lighthill's trailing-edge force alone: the fish without the fin plate's recoil and drag.
+LIGHTHILL_FISH = FishParameters(fin_chord_m=0.0, fin_normal_drag_coefficient=0.0)
 
 
 def test_sinusoidal_fin_force_at_rest_by_hand():
@@ -41,7 +43,7 @@ def test_sinusoidal_fin_force_at_rest_by_hand():
     # The tip moves along the fin's normal: v_T = (-Tx_dot, Ty_dot) = l theta_dot (sin, cos) = w n
     # with w = l theta_dot and u_t = 0, so F_T = ½ m w² t = ½ m w² (cos 0.2, -sin 0.2).
     length, theta, rate = 0.3, 0.2, 0.3 * 2.0 * math.pi
-    fish = FishParameters()
+    fish = LIGHTHILL_FISH
     m = math.pi / 4.0 * 1000.0 * 0.1**2
     push = 0.5 * m * (length * rate) ** 2
     force_x, force_y = push * math.cos(theta), -push * math.sin(theta)
@@ -128,7 +130,8 @@ def test_recoil_is_minus_the_rate_of_the_fins_added_momentum():
     # Integrate a fish with a chord, then differentiate the world-frame momentum m c w_c n of the
     # fin's added mass along the trajectory: its negative rate must be the recoil the model used.
     chord = 0.06
-    fish = FishParameters(fin_chord_m=chord)
+    # The recoil alone: the plate's drag would be one more force in the balance below.
+    fish = FishParameters(fin_chord_m=chord, fin_normal_drag_coefficient=0.0)
     model = SwimModel(fish, SinusoidalTailDrive(0.3, 0.1, 0.3, 2.0 * np.pi))
     step = 1e-3
     trajectory = simulate(model, 1, step, 400)

@@ -98,7 +98,8 @@ def motor_load_columns(rows: MotorLoadRows) -> list[Column]:
         ("air RMS", ".4f", "air_rms_torque_n_m"),
         ("rest peak", ".4f", "rest_peak_torque_n_m"),
         ("rest RMS", ".4f", "rest_rms_torque_n_m"),
-        ("rest P", ".1e", "rest_mean_power_w"),  # zero but for rounding: no "-0.0000"
+        # Without a fin plate zero but for rounding (no "-0.0000"); with one, its dissipation.
+        ("rest P", ".1e", "rest_mean_power_w"),
         ("U [m/s]", ".3f", "swimming_speed_m_s"),
         ("swim peak", ".4f", "swimming_peak_torque_n_m"),
         ("swim RMS", ".4f", "swimming_rms_torque_n_m"),

@@ -57,7 +57,8 @@ class LoadSamples(NamedTuple):
 
     #: c(φ) = τ_L / ω² [N m s²/rad²]: the load torque at 1 rad/s.
     per_speed_squared_n_m_s2: FloatArray
-    #: J(φ) [kg m²], the links' inertia reduced to the carrier.
+    #: J(φ) [kg m²], the inertia reduced to the carrier: the links', and in water the fin's
+    #: added mass.
     inertia_kg_m2: FloatArray
 
 

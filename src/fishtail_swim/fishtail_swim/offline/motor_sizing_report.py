@@ -83,7 +83,8 @@ def write_sizing_report(sizing: MotorSizing, tail_text: str, out: TextIO) -> Non
         f"N m + {p.viscous_friction_n_m_s:.3g} N m s at the shaft\n"
         f"  at the carrier: stall {p.stall_torque_n_m:.4g} N m ({p.stall_current_a:.3g} A), "
         f"no load {_speed_text(p.no_load_speed_rad_s)}\n"
-        f"load: {tail_text}; links' inertia at the carrier {inertia.min():.3g} to "
+        # In water the inertia is the links' and the fin plate's added mass (TailLoad.exact).
+        f"load: {tail_text}; inertia at the carrier {inertia.min():.3g} to "
         f"{inertia.max():.3g} kg m^2\n\n"
         "constant carrier speed (quasi-static), over a revolution at each beat frequency; "
         "torques at the carrier:\n"

@@ -17,11 +17,12 @@ import numpy as np
 from fishtail_plant.fish.figures import (
     fin_drag_tail_power,
     held_fish,
+    recoil_tail_power,
     steady_surge_speed,
     tail_power,
 )
 from fishtail_plant.fish.fish import FishParameters, FloatArray
-from fishtail_plant.fish.model import fin_drag, trailing_edge_force
+from fishtail_plant.fish.model import fin_drag, fin_recoil, trailing_edge_force
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.tables import Column
@@ -101,7 +102,8 @@ def _balance_batch(fish: FishParameters, beats: TailBeats) -> BalanceRows:
     drive = beats.drive
     period = beats.beat_period_s
     speed = steady_surge_speed(drive, fish, period)
-    tail = drive.sample(np.arange(BEAT_SAMPLES)[:, None] / BEAT_SAMPLES * period)
+    times = np.arange(BEAT_SAMPLES)[:, None] / BEAT_SAMPLES * period
+    tail = drive.sample(times)
     surge = np.broadcast_to(speed, tail.tip_x.shape)
     held = np.zeros_like(surge)
     force = trailing_edge_force(fish, tail, surge, held, held).force
@@ -109,6 +111,10 @@ def _balance_batch(fish: FishParameters, beats: TailBeats) -> BalanceRows:
     if fish.has_fin_drag:
         plate = fin_drag(fish, tail, surge, held, held)
         push, work = push + plate.force.x, work + fin_drag_tail_power(plate, tail)
+    if np.any(np.asarray(fish.fin_chord_m) > 0.0):
+        # Towed at U the recoil's mean power is not zero: the carrier pays it (motor-load.md).
+        recoil = fin_recoil(fish, tail, drive.acceleration(times), surge, held, held)
+        work = work + recoil_tail_power(recoil, fish, tail)
     thrust, power = push.mean(axis=0), work.mean(axis=0)
     still = held_fish(drive, fish, period, BEAT_SAMPLES)
     frequency = 1.0 / period
