@@ -44,16 +44,22 @@ run: setup
 lint: setup
 	$(WITH_ENV) ruff check . && mypy
 
-# The whole suite on every core, the 25 slowest tests listed at the end. Each run gets its own ROS
-# domain (unless ROS_DOMAIN_ID is set) so that nodes started by tests do not talk to other ROS
-# processes on the machine. Set-up first: tools/test-system-packages.sh installs the Debian
-# packages some tests use where it can (root with apt-get), and says so where not; then
-# tools/test-firmware.sh builds the firmware for its tests (or says why not, and they skip).
+# The whole suite on every core, the 25 slowest tests listed at the end; then the tests marked
+# `alone` (real-time measurements, such as a browser's latency) one at a time, so that the runner's
+# own parallel tests do not stand in for the load they measure. Each run gets its own ROS domain
+# (unless ROS_DOMAIN_ID is set) so that nodes started by tests do not talk to other ROS processes
+# on the machine. Set-up first: tools/test-system-packages.sh installs the Debian packages some
+# tests use where it can (root with apt-get), and says so where not; then tools/test-firmware.sh
+# builds the firmware for its tests (or says why not, and they skip). pytest's status 5 (no test
+# selected, e.g. TEST_DIRS without `alone` tests) is not a failure.
 test: lint
 	tools/test-system-packages.sh
 	tools/test-firmware.sh
 	$(WITH_ENV) $(DOMAIN) \
-	  python -m pytest $(or $(TEST_DIRS),test) -n $(TEST_JOBS) --durations=25 $(PYTEST_ARGS)
+	  python -m pytest $(or $(TEST_DIRS),test) -n $(TEST_JOBS) -m "not alone" --durations=25 \
+	  $(PYTEST_ARGS) && \
+	$(WITH_ENV) $(DOMAIN) \
+	  python -m pytest $(or $(TEST_DIRS),test) -m alone $(PYTEST_ARGS) || [ $$? -eq 5 ]
 
 # The fast tier, for every change: lint, then the tests that start no process and take under a
 # few seconds each (markers: pyproject.toml and conftest.py); under two minutes on 2 cores.

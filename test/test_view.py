@@ -256,6 +256,7 @@ CATCH_UP_S = 120.0
 
 
 @pytest.mark.slow
+@pytest.mark.alone
 def test_the_web_viewer_in_headless_chromium_keeps_up_with_the_suite(
     ros, start_node, start_process, rerun_settings, config_dir, tmp_path
 ):
