@@ -44,7 +44,14 @@ from fishtail_common.ros import (
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_msgs.msg import CarrierSpeedProfile as ProfileMessage
-from fishtail_pilot.pilot import CONTROL_PARAMETERS, Mode, Pilot, PilotCommand, PilotSettings
+from fishtail_pilot.pilot import (
+    CONTROL_PARAMETERS,
+    Mode,
+    Pilot,
+    PilotCommand,
+    PilotSettings,
+    goal_distance_text,
+)
 from fishtail_pilot.steering import STEERING_PARAMETERS, steering_from_values
 from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FISH_PARAMETERS
@@ -80,6 +87,10 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     *LIVE_PARAMETERS,
 )
 
+
+
+def _number_or_empty(value: float) -> str:
+    return "" if math.isnan(value) else f"{value:.4g}"
 
 class PilotNode(SuiteNodeBase):
     """Thin shell around :class:`Pilot`."""
@@ -198,7 +209,7 @@ class PilotNode(SuiteNodeBase):
         # latest goal is always on /diagnostics.
         self.get_logger().info(
             f"goal ({position.x:.3f}, {position.y:.3f}) m: "
-            f"{self.pilot.distance_to_goal_m():.3f} m to go",
+            f"{goal_distance_text(self.pilot.distance_to_goal_m())}",
             throttle_duration_sec=GOAL_LOG_PERIOD_S,
         )
 
@@ -297,7 +308,8 @@ class PilotNode(SuiteNodeBase):
             "mean_heading_rad": f"{pilot.mean_heading_rad:.4g}",
             "x_m": f"{pilot.position_m[0]:.4g}",
             "y_m": f"{pilot.position_m[1]:.4g}",
-            "distance_to_goal_m": f"{pilot.distance_to_goal_m():.4g}",
+            # Empty while the fish's position is unknown (before the first odometry).
+            "distance_to_goal_m": _number_or_empty(pilot.distance_to_goal_m()),
             "carrier_mean_speed_rad_s": f"{pilot.command.carrier.mean_speed_rad_s:.4g}",
             "modulation_depth": f"{pilot.command.carrier.depth:.4g}",
         }
@@ -308,7 +320,7 @@ class PilotNode(SuiteNodeBase):
         if pilot.command.pivot_shift_m is not None:
             values["pivot_shift_m"] = f"{pilot.command.pivot_shift_m:.4g}"
         if pilot.mode is Mode.GOAL:
-            text = f"to goal: {pilot.distance_to_goal_m():.3f} m to go"
+            text = f"to goal: {goal_distance_text(pilot.distance_to_goal_m())}"
         elif pilot.goal_reached:
             text = "goal reached"
         for report in pilot.limit_reports.values():

@@ -25,6 +25,17 @@ from fishtail_kinematics.engine.carrier_profile import (
 TWO_PI = 2.0 * math.pi
 
 
+def goal_distance_text(distance_m: float) -> str:
+    """How far the goal is, or that the fish's position is not known yet.
+
+    >>> goal_distance_text(2.5), goal_distance_text(math.nan)
+    ('2.500 m to go', 'distance unknown until the first odometry')
+    """
+    if math.isnan(distance_m):
+        return "distance unknown until the first odometry"
+    return f"{distance_m:.3f} m to go"
+
+
 def wrap_angle(angle_rad: float) -> float:
     """``angle_rad`` brought into [-pi, pi).
 
