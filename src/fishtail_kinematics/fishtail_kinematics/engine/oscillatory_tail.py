@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import copy
 import math
-from typing import cast
+from typing import NamedTuple, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -23,6 +23,7 @@ from fishtail_kinematics.engine.geometry import (
     LinkageState,
     OscillatoryGeometry,
     OscillatoryState,
+    Real,
 )
 from fishtail_kinematics.engine.link_motion import (
     BodyMotion,
@@ -85,8 +86,7 @@ class OscillatoryTail(Tail):
         #: theta2 at which the tail link lies along the body axis: the design's mid-swing. The
         #: link is rigid with RS, so a pivot shift keeps it (see :meth:`with_pivot_shift`).
         self.tail_mounting_rad = self.theta2_mid
-        self._cos_mounting = math.cos(self.tail_mounting_rad)
-        self._sin_mounting = math.sin(self.tail_mounting_rad)
+        self._set_constants()
         self._unshifted = self
 
     def _place_pivot(self, pivot_offset_m: float) -> None:
@@ -104,6 +104,15 @@ class OscillatoryTail(Tail):
         #: Mid-swing at the current pivot: theta3 = theta2 - theta2_mid.
         self.theta2_mid = 0.5 * (self.theta2_min + self.theta2_max)
         self.swing_range_rad = self.theta2_max - self.theta2_min
+        self._set_constants()
+
+    def _set_constants(self) -> None:
+        mounting = getattr(self, "tail_mounting_rad", self.theta2_mid)
+        #: The numbers of the array path (:func:`solve_drive_arrays`).
+        self.constants = DriveConstants(
+            self._R, self._PR, self._RS, self._ST, self._OS, self._psi, self.theta2_mid,
+            mounting, self.theta2_mid == mounting,
+        )  # fmt: skip
 
     @property
     def drive(self) -> OscillatoryTail:
@@ -236,65 +245,95 @@ class OscillatoryTail(Tail):
 
         That angle is ``fin_angle``, which mechanism 2's SW has.
         """
-        # np.sin/np.cos/np.hypot cost ~8 ns a sample in float64, the algebra below ~0.5 ns an
-        # operation: so only the carrier angle goes through trigonometry, every other sine and
-        # cosine comes from the angle-sum identities, and the work is done in place.
-        phi, phi_dot = np.broadcast_arrays(phi, phi_dot)
-        carrier = phi + self._psi
-        cos_carrier = np.cos(carrier)
-        sin_carrier = np.sin(carrier, out=carrier)
-        op = np.multiply(cos_carrier, self._R, out=cos_carrier)
-        op_dot = np.multiply(sin_carrier, phi_dot, out=sin_carrier)
-        op_dot *= -self._R
-        # alpha = atan2(OS, OP), beta = asin K, theta2 = alpha + beta.
-        distance = np.square(op)
-        k = distance + self._k_constant
-        distance += self._OS**2
-        np.sqrt(distance, out=distance)
-        k /= distance
-        k *= 0.5 / self._RS
-        cos_alpha = op / distance
-        sin_alpha = np.divide(self._OS, distance, out=distance)
-        theta2 = np.arctan2(self._OS, op)
-        theta2 += np.arcsin(k)
-        cos_beta = 1.0 - k
-        cos_beta *= 1.0 + k
-        np.sqrt(cos_beta, out=cos_beta)
-        sin2 = sin_alpha * cos_beta
-        sin2 += cos_alpha * k
-        cos2 = np.multiply(cos_alpha, cos_beta, out=cos_alpha)
-        cos2 -= np.multiply(sin_alpha, k, out=k)
-        # Joint R relative to P, scaled by 1/PR: (cos theta1, -sin theta1).
-        cos1 = np.multiply(cos2, self._RS / self._PR, out=cos_beta)
-        cos1 += self._OS / self._PR
-        sin1 = np.multiply(sin2, -self._RS / self._PR, out=sin_alpha)
-        sin1 += op * (1.0 / self._PR)
-        theta1 = np.arctan2(sin1, cos1)
-        sin_sum = sin1 * cos2
-        sin_sum += cos1 * sin2
-        rate = np.divide(op_dot, sin_sum, out=sin_sum)
-        theta2_dot = rate * sin1
-        theta2_dot *= 1.0 / self._RS
-        theta1_dot = np.multiply(rate, sin2, out=rate)
-        theta1_dot *= 1.0 / self._PR
-        theta3 = theta2 - self.theta2_mid
-        # Unshifted, the body-frame angle is theta3 itself: the same array, no extra pass.
-        fin_angle = theta3 if self.theta2_mid == self.tail_mounting_rad else (
-            theta2 - self.tail_mounting_rad
-        )  # fmt: skip
-        sin_fin = sin2 * self._cos_mounting
-        sin_fin -= cos2 * self._sin_mounting
-        cos_fin = np.multiply(cos2, self._cos_mounting, out=cos2)
-        cos_fin += sin2 * self._sin_mounting
-        tip_x = cos_fin * self._ST
-        tip_x += self._OS
-        tip_y = sin_fin * self._ST
-        tip_x_dot = tip_y * theta2_dot
-        np.negative(tip_x_dot, out=tip_x_dot)
-        tip_y_dot = cos_fin * theta2_dot
-        tip_y_dot *= self._ST
-        state = OscillatoryState(
-            phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
-            tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
-        )  # fmt: skip
-        return state, cos_fin, sin_fin
+        return solve_drive_arrays(self.constants, phi, phi_dot)
+
+
+class DriveConstants(NamedTuple):
+    """What mechanism 1's array path needs: floats for one linkage, equal-shaped arrays for many.
+
+    With arrays (one element per linkage) the carrier angles broadcast against them, e.g.
+    ``(samples, linkages)`` against ``(linkages,)``. ``mounted_at_mid``: the tail link lies along
+    the body axis at mid-swing (no pivot shift), so that its angle from the body axis is theta3.
+    """
+
+    ring_radius_m: Real
+    crank_link_m: Real
+    rocker_link_m: Real
+    tail_link_m: Real
+    pivot_offset_m: Real
+    phase_rad: Real
+    theta2_mid: Real
+    tail_mounting_rad: Real
+    mounted_at_mid: bool
+
+
+def solve_drive_arrays(
+    c: DriveConstants, phi: FloatArray, phi_dot: FloatArray
+) -> tuple[OscillatoryState, FloatArray, FloatArray]:
+    """Mechanism 1 at carrier angles ``phi`` and speeds ``phi_dot`` (arrays), and the tail trig.
+
+    Returns the state and cos, sin of the tail link's angle from the body axis. Inputs are not
+    checked here (a linkage that cannot assemble gives NaN): :class:`OscillatoryTail` checks them.
+    """
+    k_constant = c.rocker_link_m**2 + c.pivot_offset_m**2 - c.crank_link_m**2
+    cos_mounting, sin_mounting = np.cos(c.tail_mounting_rad), np.sin(c.tail_mounting_rad)
+    # np.sin/np.cos/np.hypot cost ~8 ns a sample in float64, the algebra below ~0.5 ns an
+    # operation: so only the carrier angle goes through trigonometry, every other sine and
+    # cosine comes from the angle-sum identities, and the work is done in place.
+    phi, phi_dot = np.broadcast_arrays(phi, phi_dot)
+    carrier = phi + c.phase_rad
+    cos_carrier = np.cos(carrier)
+    sin_carrier = np.sin(carrier, out=carrier)
+    op = np.multiply(cos_carrier, c.ring_radius_m, out=cos_carrier)
+    op_dot = np.multiply(sin_carrier, phi_dot, out=sin_carrier)
+    op_dot *= -c.ring_radius_m
+    # alpha = atan2(OS, OP), beta = asin K, theta2 = alpha + beta.
+    distance = np.square(op)
+    k = distance + k_constant
+    distance += c.pivot_offset_m**2
+    np.sqrt(distance, out=distance)
+    k /= distance
+    k *= 0.5 / c.rocker_link_m
+    cos_alpha = op / distance
+    sin_alpha = np.divide(c.pivot_offset_m, distance, out=distance)
+    theta2 = np.arctan2(c.pivot_offset_m, op)
+    theta2 += np.arcsin(k)
+    cos_beta = 1.0 - k
+    cos_beta *= 1.0 + k
+    np.sqrt(cos_beta, out=cos_beta)
+    sin2 = sin_alpha * cos_beta
+    sin2 += cos_alpha * k
+    cos2 = np.multiply(cos_alpha, cos_beta, out=cos_alpha)
+    cos2 -= np.multiply(sin_alpha, k, out=k)
+    # Joint R relative to P, scaled by 1/PR: (cos theta1, -sin theta1).
+    cos1 = np.multiply(cos2, c.rocker_link_m / c.crank_link_m, out=cos_beta)
+    cos1 += c.pivot_offset_m / c.crank_link_m
+    sin1 = np.multiply(sin2, -c.rocker_link_m / c.crank_link_m, out=sin_alpha)
+    sin1 += op * (1.0 / c.crank_link_m)
+    theta1 = np.arctan2(sin1, cos1)
+    sin_sum = sin1 * cos2
+    sin_sum += cos1 * sin2
+    rate = np.divide(op_dot, sin_sum, out=sin_sum)
+    theta2_dot = rate * sin1
+    theta2_dot *= 1.0 / c.rocker_link_m
+    theta1_dot = np.multiply(rate, sin2, out=rate)
+    theta1_dot *= 1.0 / c.crank_link_m
+    theta3 = theta2 - c.theta2_mid
+    # Unshifted, the body-frame angle is theta3 itself: the same array, no extra pass.
+    fin_angle = theta3 if c.mounted_at_mid else theta2 - c.tail_mounting_rad
+    sin_fin = sin2 * cos_mounting
+    sin_fin -= cos2 * sin_mounting
+    cos_fin = np.multiply(cos2, cos_mounting, out=cos2)
+    cos_fin += sin2 * sin_mounting
+    tip_x = cos_fin * c.tail_link_m
+    tip_x += c.pivot_offset_m
+    tip_y = sin_fin * c.tail_link_m
+    tip_x_dot = tip_y * theta2_dot
+    np.negative(tip_x_dot, out=tip_x_dot)
+    tip_y_dot = cos_fin * theta2_dot
+    tip_y_dot *= c.tail_link_m
+    state = OscillatoryState(
+        phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
+        tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
+    )  # fmt: skip
+    return state, cos_fin, sin_fin

@@ -27,6 +27,7 @@ from fishtail_kinematics.engine.geometry import (
     LinkageState,
     OscillatoryGeometry,
     OscillatoryState,
+    Real,
     UndulatoryGeometry,
     UndulatoryState,
 )
@@ -196,6 +197,22 @@ class Tail(abc.ABC):
         """
 
 
+def assembly_margins(
+    ring_radius_m: Real, crank_link_m: Real, rocker_link_m: Real, pivot_offset_m: Real
+) -> tuple[Real, Real]:
+    """The drive's two assembly conditions as signed margins [m], > 0 where each holds.
+
+    The loop P-R-S closes for every OP in [-R, R] iff |RS - PR| < OS and OS^2 + R^2 < (RS + PR)^2:
+    the margins are OS - |RS - PR| and RS + PR - sqrt(OS^2 + R^2). Floats or arrays.
+
+    >>> [round(float(m), 6) for m in assembly_margins(0.1, 0.1, 0.05, 0.2)]
+    [0.15, -0.073607]
+    """
+    inner = pivot_offset_m - np.abs(np.subtract(rocker_link_m, crank_link_m))
+    outer = np.add(rocker_link_m, crank_link_m) - np.hypot(pivot_offset_m, ring_radius_m)
+    return inner, outer
+
+
 def assembly_violations(
     ring_radius_m: float, crank_link_m: float, rocker_link_m: float, pivot_offset_m: float
 ) -> list[str]:
@@ -210,15 +227,16 @@ def assembly_violations(
     RS + PR = 0.150000 m by 0.073607 m
     """
     problems = []
+    inner, outer = assembly_margins(ring_radius_m, crank_link_m, rocker_link_m, pivot_offset_m)
     link_difference = abs(rocker_link_m - crank_link_m)
-    if not link_difference < pivot_offset_m:
+    if not inner > 0.0:
         problems.append(
             f"|RS - PR| < OS fails: |RS - PR| = {link_difference:.6f} m is not less than "
             f"OS = {pivot_offset_m:.6f} m (exceeds it by {link_difference - pivot_offset_m:.6f} m)"
         )
     farthest = math.hypot(pivot_offset_m, ring_radius_m)
     reach = rocker_link_m + crank_link_m
-    if not farthest < reach:
+    if not outer > 0.0:
         problems.append(
             f"OS^2 + R^2 < (RS + PR)^2 fails: sqrt(OS^2 + R^2) = {farthest:.6f} m exceeds "
             f"RS + PR = {reach:.6f} m by {farthest - reach:.6f} m"

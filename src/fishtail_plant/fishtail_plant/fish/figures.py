@@ -16,6 +16,7 @@ True
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -208,6 +209,47 @@ def recoil_tail_power(
     return power
 
 
+class HeldTail(NamedTuple):
+    """The tail's push on the body, its yaw moment about C and its power, per sample."""
+
+    push_n: FloatArray
+    yaw_moment_n_m: FloatArray
+    power_w: FloatArray
+    tail: TailSample  # the tail at those samples
+
+
+def held_tail(
+    drive: TailDrive,
+    fish: FishParameters,
+    time_s: npt.ArrayLike,
+    surge_speed_m_s: npt.ArrayLike,
+    yaw_rate_rad_s: npt.ArrayLike = 0.0,
+) -> HeldTail:
+    """The tail's forces on the body held at u = U, v = 0, r (towed, not accelerating).
+
+    As :func:`tail_thrust_and_power`: Lighthill's force and the plate's drag in the push and the
+    moment; the tail's work against all three, the recoil included, in the power (towed at U its
+    mean is not zero: the carrier pays it). The recoil's push is left out (its mean over a beat
+    is zero); its moment is kept, which turning at r leaves nonzero.
+    """
+    time = np.asarray(time_s, dtype=float)
+    tail = drive.sample(time)
+    u = np.asarray(surge_speed_m_s, dtype=float) + np.zeros_like(tail.tip_x)
+    r = np.asarray(yaw_rate_rad_s, dtype=float) + np.zeros_like(u)
+    held = np.zeros_like(u)
+    force = _trailing_edge_force(fish, tail, u, held, r).force
+    push, moment, power = force.x, force.z, tail_power(force, tail)
+    if fish.has_fin_drag:
+        plate = fin_drag(fish, tail, u, held, r)
+        push, moment = push + plate.force.x, moment + plate.force.z
+        power = power + fin_drag_tail_power(plate, tail)
+    if np.any(np.asarray(fish.fin_chord_m) > 0.0):
+        recoil = fin_recoil(fish, tail, drive.acceleration(time), u, held, r)
+        moment = moment + recoil.rest.z
+        power = power + recoil_tail_power(recoil, fish, tail)
+    return HeldTail(push, moment, power, tail)
+
+
 def tail_thrust_and_power(
     model: SwimModel, time_s: npt.ArrayLike, state: FloatArray
 ) -> tuple[FloatArray, FloatArray, TailSample]:
@@ -307,6 +349,7 @@ def steady_surge_speed(
     fish: FishParameters,
     beat_period_s: npt.ArrayLike,
     samples: int | None = None,
+    strict: bool = True,
 ) -> FloatArray:
     """The U > 0 with <F_T,x>(U) = ½ rho S C_D U² + X_u U (sway and yaw held), one per fish.
 
@@ -315,10 +358,12 @@ def steady_surge_speed(
     drag, the balance is a quadratic equation: no iteration. The plate's drag |w| w is not a
     polynomial in U: then the balance is bracketed and bisected, one bracket per fish.
 
-    ``samples`` per beat: by default :func:`cycle_samples_for` the fish.
+    ``samples`` per beat: by default :func:`cycle_samples_for` the fish. Not ``strict``: NaN for
+    a fish without a balance, so that a batch of candidate designs keeps its shape.
 
     Raises:
-        NoSteadySpeedError: a fish whose cycle-mean thrust never balances its drag at U > 0.
+        NoSteadySpeedError: ``strict``, and a fish whose cycle-mean thrust never balances its
+            drag at U > 0.
     """
     tail = _cycle_samples(drive, beat_period_s, samples or cycle_samples_for(fish))
     lighthill = fish if not fish.has_fin_drag else dataclasses.replace(
@@ -333,7 +378,11 @@ def steady_surge_speed(
     discriminant = linear * linear - 4.0 * quadratic * at_rest
     usable = (quadratic < 0.0) & (at_rest > 0.0) & (discriminant >= 0.0)
     if fish.has_fin_drag:
-        return _bisected_speed(fish, tail, at_rest, linear, quadratic, usable, discriminant)
+        return _bisected_speed(fish, tail, at_rest, linear, quadratic, usable, discriminant, strict)
+    if not strict:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            root = np.sqrt(np.where(usable, discriminant, np.nan))
+            return np.asarray(np.where(usable, (2.0 * at_rest) / (root - linear), np.nan))
     if not usable.all():
         bad = int(np.flatnonzero(~np.broadcast_to(usable, at_rest.shape))[0])
         raise NoSteadySpeedError(
@@ -354,8 +403,13 @@ def _bisected_speed(
     quadratic: FloatArray,
     usable: FloatArray,
     discriminant: FloatArray,
+    strict: bool,
 ) -> FloatArray:
-    """The balance with the plate's drag: bracket [0, U_hi] by doubling, then bisect."""
+    """The balance with the plate's drag: bracket [0, U_hi] by doubling, then bisect.
+
+    Not ``strict``: NaN where the thrust at rest does not beat the plate's drag, or where no
+    bracket is found.
+    """
     def net(speed: FloatArray) -> FloatArray:
         # Lighthill's polynomial, the damping, and the plate's drag averaged over the beat.
         u = speed + np.zeros_like(tail.tip_x)
@@ -365,7 +419,8 @@ def _bisected_speed(
         return value
 
     rest = net(np.zeros_like(at_rest))
-    if np.any(rest <= 0.0):
+    moving = rest > 0.0
+    if strict and not moving.all():
         bad = int(np.flatnonzero(np.ravel(rest) <= 0.0)[0])
         raise NoSteadySpeedError(
             f"fish {bad}: cycle-mean thrust {float(np.ravel(rest)[bad]):.6g} N at rest, with the "
@@ -375,18 +430,28 @@ def _bisected_speed(
     with np.errstate(divide="ignore", invalid="ignore"):
         without_plate = (2.0 * at_rest) / (np.sqrt(discriminant) - linear)
     high = np.maximum(np.where(usable, without_plate, 0.1), 1e-3)
+    high = np.where(moving, high, 1e-3)
     for _ in range(_BRACKET_DOUBLINGS):
         ahead = net(high) > 0.0
         if not ahead.any():
             break
         high = np.where(ahead, 2.0 * high, high)
     else:
-        bad = int(np.flatnonzero(np.ravel(net(high)) > 0.0)[0])
-        raise NoSteadySpeedError(
-            f"fish {bad}: the thrust outgrows the drag at every speed up to "
-            f"{float(np.ravel(high)[bad]):.3g} m/s"
-        )
-    low = np.zeros_like(high)
+        if strict:
+            bad = int(np.flatnonzero(np.ravel(net(high)) > 0.0)[0])
+            raise NoSteadySpeedError(
+                f"fish {bad}: the thrust outgrows the drag at every speed up to "
+                f"{float(np.ravel(high)[bad]):.3g} m/s"
+            )
+        moving = moving & (net(high) <= 0.0)
+    speed = _bisect(net, np.zeros_like(high), high)
+    return speed if strict else np.where(moving, speed, np.nan)
+
+
+def _bisect(
+    net: Callable[[FloatArray], FloatArray], low: FloatArray, high: FloatArray
+) -> FloatArray:
+    """The root of ``net`` (> 0 below it, < 0 above) in [low, high], per element."""
     for _ in range(_BISECTIONS):
         middle = 0.5 * (low + high)
         above = net(middle) > 0.0

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_common.parameters import ParameterSpec
+from fishtail_kinematics.engine.geometry import LinkageState
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_plant.errors import FishParameterError, SwimParameterError
 from fishtail_plant.fish.fish import FloatArray, PerFish
@@ -90,10 +91,20 @@ def _as_array(value: object) -> FloatArray:
     return np.asarray(value, dtype=float)
 
 
+class LinkageSolver(Protocol):
+    """What a drive asks of a linkage: its pose and rates at carrier angles and speeds."""
+
+    def solve(self, motor_angle: npt.ArrayLike, motor_velocity: npt.ArrayLike) -> LinkageState:
+        """Pose and rates (floats for floats, arrays for arrays)."""
+
+    def fin_angle_field(self) -> str:
+        """The state field of the last link's angle to the body axis."""
+
+
 class EngineTailDrive:
     """A tail of the kinematics engine (either mechanism) turned by a carrier motion."""
 
-    def __init__(self, tail: Tail, carrier: CarrierMotion) -> None:
+    def __init__(self, tail: Tail | LinkageSolver, carrier: CarrierMotion) -> None:
         """Drive ``tail`` with ``carrier`` (e.g. :func:`constant_carrier_speed`)."""
         self.tail = tail
         self.carrier = carrier
@@ -115,6 +126,12 @@ class EngineTailDrive:
             shaped = values.reshape(len(fields), *angle.shape)
             tip_x, tip_y, tip_x_dot, tip_y_dot, fin, rate = shaped
             return tip_x, tip_y, tip_x_dot, tip_y_dot, fin, rate
+        return self._array_pose_and_rates(angle, speed)
+
+    def _array_pose_and_rates(
+        self, angle: FloatArray, speed: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        fields = ("tip_x", "tip_y", "tip_x_dot", "tip_y_dot", self._angle_field, self._rate_field)
         state = self.tail.solve(angle, speed)
         tip_x, tip_y, tip_x_dot, tip_y_dot, fin, rate = (
             _as_array(getattr(state, field)) for field in fields
@@ -152,6 +169,18 @@ class EngineTailDrive:
             curvature = (ahead[rate_index] - behind[rate_index]) * scale
             result.append(curvature * speed**2 + here[rate_index] * carrier_acceleration)
         return TailAcceleration(*result)
+
+
+class LinkageBatchDrive(EngineTailDrive):
+    """Many linkages at once, one per fish (e.g. an ``OscillatoryBatch``), each on its carrier.
+
+    The linkages' lengths are arrays, so every sample goes through the array path.
+    """
+
+    def _pose_and_rates(
+        self, angle: FloatArray, speed: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        return self._array_pose_and_rates(*np.broadcast_arrays(angle, speed))
 
 
 class SinusoidalTailDrive:

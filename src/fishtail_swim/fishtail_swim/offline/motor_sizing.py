@@ -27,6 +27,13 @@ from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_plant.motor.dc_motor import DcMotorParameters
+from fishtail_plant.motor.duty import (
+    MotorConstants,
+    duty,
+    paid_per_speed_squared,
+    speed_at_supply,
+    torque_at_carrier,
+)
 from fishtail_swim.offline.full_duty_run import (
     DEFAULT_RUN_LIMITS,
     FullDutyRun,
@@ -74,20 +81,9 @@ def sample_load(load: TailLoad, samples: int = SAMPLES_PER_REVOLUTION) -> LoadSa
     )
 
 
-def _through_gearbox(per_speed_squared: FloatArray, efficiency: float) -> FloatArray:
-    """The load's torque as the motor pays for it, e c (1/η driving the tail, η driven by it)."""
-    return np.where(per_speed_squared > 0.0, per_speed_squared / efficiency,
-                    per_speed_squared * efficiency)  # fmt: skip
-
-
 def torque_at_carrier_n_m(parameters: DcMotorParameters, speed_rad_s: npt.ArrayLike) -> FloatArray:
     """The motor's torque at the carrier at full duty, steady: its torque-speed line (motoring)."""
-    p = parameters
-    speed = np.asarray(speed_rad_s, dtype=float)
-    k, n = p.torque_constant_n_m_a, p.gear_ratio
-    at_shaft = (k * (p.supply_voltage_v - k * n * speed) / p.resistance_ohm
-                - p.viscous_friction_n_m_s * n * speed - p.coulomb_friction_n_m)  # fmt: skip
-    return np.asarray(p.gearbox_efficiency * n * at_shaft, dtype=float)
+    return torque_at_carrier(MotorConstants.of(parameters), speed_rad_s)
 
 
 class QuasiStaticRows(NamedTuple):
@@ -113,12 +109,8 @@ def quasi_static_rows(
     frequencies = np.atleast_1d(np.asarray(frequencies_hz, dtype=float))
     speeds = 2.0 * math.pi * frequencies
     c = load.per_speed_squared_n_m_s2[:, None]
-    k, n = p.torque_constant_n_m_a, p.gear_ratio
     torque = c * speeds**2
-    motor_torque = (_through_gearbox(c, p.gearbox_efficiency) * speeds**2 / n
-                    + p.viscous_friction_n_m_s * n * speeds + p.coulomb_friction_n_m)  # fmt: skip
-    current = motor_torque / k
-    voltage = p.resistance_ohm * current + k * n * speeds
+    current, voltage = duty(MotorConstants.of(p), c, speeds)
     peak_torque = np.abs(torque).max(axis=0)
     peak_voltage = voltage.max(axis=0)
     # A row at a limit itself (within rounding) is within it.
@@ -150,28 +142,13 @@ class QuasiStaticLimits(NamedTuple):
     mean_rad_s: float
 
 
-def _speed_at_supply(parameters: DcMotorParameters, paid_per_speed_squared: float) -> float:
-    """The ω > 0 at which a ω² + β ω + γ = V, with a = R e c / (k N) for e c given; 0 if γ ≥ V."""
-    p = parameters
-    k, n, r = p.torque_constant_n_m_a, p.gear_ratio, p.resistance_ohm
-    a = r * paid_per_speed_squared / (k * n)
-    beta = r * p.viscous_friction_n_m_s * n / k + k * n
-    headroom = p.supply_voltage_v - r * p.coulomb_friction_n_m / k
-    if headroom <= 0.0:
-        return 0.0
-    discriminant = beta * beta + 4.0 * a * headroom
-    if discriminant < 0.0:  # a < 0: a load that drives the carrier faster than any supply limit
-        return math.inf
-    # The smaller positive root, written without the cancellation of -β + sqrt(...) for small a.
-    return 2.0 * headroom / (beta + math.sqrt(discriminant))
-
-
 def quasi_static_limits(parameters: DcMotorParameters, load: LoadSamples) -> QuasiStaticLimits:
     """The constant-speed and on-the-mean limits at full duty (docs/motor-load.md, "Method")."""
-    paid = _through_gearbox(load.per_speed_squared_n_m_s2, parameters.gearbox_efficiency)
+    paid = paid_per_speed_squared(load.per_speed_squared_n_m_s2, parameters.gearbox_efficiency)
+    constants = MotorConstants.of(parameters)
     return QuasiStaticLimits(
-        _speed_at_supply(parameters, float(paid.max())),
-        _speed_at_supply(parameters, float(paid.mean())),
+        float(speed_at_supply(constants, paid.max())),
+        float(speed_at_supply(constants, paid.mean())),
     )
 
 

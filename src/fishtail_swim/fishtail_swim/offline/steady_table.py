@@ -14,15 +14,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_plant.fish.figures import (
-    fin_drag_tail_power,
-    held_fish,
-    recoil_tail_power,
-    steady_surge_speed,
-    tail_power,
-)
+from fishtail_plant.fish.figures import held_fish, held_tail, steady_surge_speed
 from fishtail_plant.fish.fish import FishParameters, FloatArray
-from fishtail_plant.fish.model import fin_drag, fin_recoil, trailing_edge_force
 from fishtail_swim.offline.inputs import Swimmer
 from fishtail_swim.offline.progress import Progress
 from fishtail_swim.offline.tables import Column
@@ -103,19 +96,9 @@ def _balance_batch(fish: FishParameters, beats: TailBeats) -> BalanceRows:
     period = beats.beat_period_s
     speed = steady_surge_speed(drive, fish, period)
     times = np.arange(BEAT_SAMPLES)[:, None] / BEAT_SAMPLES * period
-    tail = drive.sample(times)
-    surge = np.broadcast_to(speed, tail.tip_x.shape)
-    held = np.zeros_like(surge)
-    force = trailing_edge_force(fish, tail, surge, held, held).force
-    push, work = force.x, tail_power(force, tail)
-    if fish.has_fin_drag:
-        plate = fin_drag(fish, tail, surge, held, held)
-        push, work = push + plate.force.x, work + fin_drag_tail_power(plate, tail)
-    if np.any(np.asarray(fish.fin_chord_m) > 0.0):
-        # Towed at U the recoil's mean power is not zero: the carrier pays it (motor-load.md).
-        recoil = fin_recoil(fish, tail, drive.acceleration(times), surge, held, held)
-        work = work + recoil_tail_power(recoil, fish, tail)
-    thrust, power = push.mean(axis=0), work.mean(axis=0)
+    towed = held_tail(drive, fish, times, speed)
+    thrust, power = towed.push_n.mean(axis=0), towed.power_w.mean(axis=0)
+    tail = towed.tail
     still = held_fish(drive, fish, period, BEAT_SAMPLES)
     frequency = 1.0 / period
     excursion = np.ptp(tail.tip_y, axis=0)
