@@ -8,7 +8,6 @@ and its checks' messages name the options. The options: docs/motor-load.md ("Cho
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import re
 from pathlib import Path
@@ -27,56 +26,36 @@ from fishtail_common.parameters import ParameterSpec, ParameterValueError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
 from fishtail_plant.motor.dc_motor import DcMotorParameters
+from fishtail_plant.motor.motor_ranges import (
+    MOTOR_FIELDS,
+    NO_LOAD_SPEED,
+    RPM,
+    STALL_TORQUE,
+    motor_parameter_specs,
+)
 from fishtail_swim.offline.motor_sizing import DEFAULT_FREQUENCIES_HZ
 from fishtail_swim.offline.options import MAX_VALUES
 
-#: Options named after DcMotorParameters' fields: what they are, their unit, and the range of a
-#: small fish's DC gear motor (checked after DcMotorParameters' own checks, on the motor the
-#: options give, so also on the resistance and torque constant the datasheet figures give). The
-#: ranges span small gear motors with a wide margin, and keep the full-duty run's step (0.1 of the
-#: mechanical time constant) and the quasi-static figures physical: a supply within the 60 V of
-#: extra-low voltage; up to the largest gearhead reductions; a winding from a large 12 V motor's
-#: 0.01 ohm to a micro motor's 1000; k from 1e-4 (a tiny fast motor) to 1 N m/A; a rotor from a
-#: micro motor's 1e-10 kg m^2 to a flywheel's 1e-2. Docs: docs/motor-load.md ("Choosing a motor").
-_FIELDS = {
-    "supply_voltage_v": ("supply voltage, the armature's at PWM 255", "V", 1.0, 60.0),
-    "gear_ratio": ("motor turns per carrier turn", "", 1.0, 10_000.0),
-    "gearbox_efficiency": ("gearbox efficiency, (0, 1]", "", 0.01, 1.0),
-    "resistance_ohm": ("armature resistance", "ohm", 0.01, 1000.0),
-    "torque_constant_n_m_a": ("torque constant = back-EMF constant", "N m/A", 1e-4, 1.0),
-    "rotor_inertia_kg_m2": ("rotor inertia at the motor shaft", "kg m^2", 1e-10, 1e-2),
-    "viscous_friction_n_m_s": ("viscous friction at the motor shaft", "N m s/rad", 0.0, 1e-2),
-    "coulomb_friction_n_m": ("Coulomb (breakaway) friction at the motor shaft", "N m", 0.0, 1.0),
-}
-#: The datasheet figures at the carrier: a small fish's tail needs about 0.01 to 1 N m at 0.5 to
-#: 5 Hz, 3 to 31 rad/s (docs/motor-load.md); these ranges hold any gear motor that could turn it
-#: with a wide margin (a hundred times the torque, thirty times the speed).
-STALL_TORQUE = ParameterSpec(
-    "stall_torque_n_m", 1.0, "stall torque at the gearbox output", "N m", 1e-3, 100.0
-)
-_NO_LOAD_RAD_S = (0.5, 1000.0)
-NO_LOAD_SPEED = ParameterSpec(
-    "no_load_speed_rad_s", 30.0, "no-load speed of the gearbox output", "rad/s", *_NO_LOAD_RAD_S
-)
+#: Options named after DcMotorParameters' fields, with their meaning, unit and the range of a
+#: small fish's DC gear motor (fishtail_plant.motor.motor_ranges, which the motor files share;
+#: checked after DcMotorParameters' own checks, on the motor the options give, so also on the
+#: resistance and torque constant the datasheet figures give).
+_FIELDS = MOTOR_FIELDS
+_NO_LOAD_RAD_S = (NO_LOAD_SPEED.minimum or 0.0, NO_LOAD_SPEED.maximum or math.inf)
 #: Set by the electrical constants; derived from the datasheet figures otherwise.
 _ELECTRICAL = ("resistance_ohm", "torque_constant_n_m_a")
-_RPM = 2.0 * math.pi / 60.0
+_RPM = RPM
 #: One item of --frequencies.
 FREQUENCY = ParameterSpec("frequency_hz", 1.0, "beat frequency", "Hz", 0.0, exclusive_minimum=True)
 
 
 def _defaults() -> dict[str, float]:
-    fields = dataclasses.fields(DcMotorParameters)
-    return {field.name: field.default for field in fields if isinstance(field.default, float)}
+    return {spec.name: float(spec.default) for spec in motor_parameter_specs()}
 
 
-def _motor_specs() -> list[ParameterSpec]:
+def _motor_specs() -> tuple[ParameterSpec, ...]:
     """The motor's options as specs, their defaults DcMotorParameters' (which checks them)."""
-    defaults = _defaults()
-    return [
-        ParameterSpec(name, defaults[name], text, unit, low, high)
-        for name, (text, unit, low, high) in _FIELDS.items()
-    ]
+    return motor_parameter_specs()
 
 
 def _check_ranges(parameters: DcMotorParameters, derived: str = "") -> DcMotorParameters:
