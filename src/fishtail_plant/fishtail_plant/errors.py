@@ -70,3 +70,15 @@ class BeatAlignmentError(SwimError):
 
 class NoSteadySpeedError(SwimError):
     """The cycle-mean thrust never balances the drag at a positive speed."""
+
+
+class MotorSpecError(PlantError):
+    """A motor specification that is incomplete or inconsistent, or a gear ratio it does not offer.
+
+    The message names the key (``motor.resistance_ohm``, ``gearbox.ratios[2].efficiency``) and
+    what is wrong with it, in one line.
+    """
+
+
+class MotorFileError(MotorSpecError):
+    """A motor file that cannot be read or holds a refused value; the message names the file."""
