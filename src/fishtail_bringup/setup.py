@@ -16,6 +16,9 @@ setup(
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
         # The suite's parameter files and RViz config (the workspace's config/ links here).
         (f"share/{PACKAGE}/config", glob("config/*.yaml") + glob("config/*.rviz")),
+        # The motor catalogue and the synthesis' worked problems.
+        (f"share/{PACKAGE}/config/motors", glob("config/motors/*.yaml")),
+        (f"share/{PACKAGE}/config/design", glob("config/design/*.yaml")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
