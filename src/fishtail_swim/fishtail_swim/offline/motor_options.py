@@ -1,13 +1,15 @@
 """The options of ``fishtail-swim motor``: the surroundings, the frequencies, the figure, the motor.
 
-A motor is given by its electrical constants or by two datasheet figures at the carrier; options
-not given keep :class:`~fishtail_plant.motor.dc_motor.DcMotorParameters`' defaults, read from it,
-and its checks' messages name the options. The options: docs/motor-load.md ("Choosing a motor").
+A motor is given by its electrical constants, by two datasheet figures at the carrier, or by a
+motor file (``--motor``, :mod:`fishtail_plant.motor.motor_file`); options not given keep
+:class:`~fishtail_plant.motor.dc_motor.DcMotorParameters`' defaults (or the file's values), and
+its checks' messages name the options. The options: docs/motor-load.md ("Choosing a motor").
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import re
 from pathlib import Path
@@ -23,9 +25,11 @@ from fishtail_common.command_line import (
     value_list,
 )
 from fishtail_common.parameters import ParameterSpec, ParameterValueError
+from fishtail_plant.errors import MotorFileError, MotorSpecError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.surroundings import SURROUNDINGS
 from fishtail_plant.motor.dc_motor import DcMotorParameters
+from fishtail_plant.motor.motor_file import read_motor_file
 from fishtail_plant.motor.motor_ranges import (
     MOTOR_FIELDS,
     NO_LOAD_SPEED,
@@ -44,6 +48,8 @@ _FIELDS = MOTOR_FIELDS
 _NO_LOAD_RAD_S = (NO_LOAD_SPEED.minimum or 0.0, NO_LOAD_SPEED.maximum or math.inf)
 #: Set by the electrical constants; derived from the datasheet figures otherwise.
 _ELECTRICAL = ("resistance_ohm", "torque_constant_n_m_a")
+#: The datasheet figures' options (dest names).
+_DATASHEET = ("stall_torque_n_m", "no_load_speed_rad_s", "no_load_speed_rpm")
 _RPM = RPM
 #: One item of --frequencies.
 FREQUENCY = ParameterSpec("frequency_hz", 1.0, "beat frequency", "Hz", 0.0, exclusive_minimum=True)
@@ -115,6 +121,14 @@ def add_motor_arguments(parser: argparse.ArgumentParser) -> None:
     motor = parser.add_argument_group(
         "motor (SI units; default: DcMotorParameters, a Pololu 37D 12 V with its 30:1 gearbox)"
     )
+    motor.add_argument(
+        "--motor", type=Path, metavar="FILE.yaml",
+        help="the motor of a motor file (config/motors/*.yaml) instead of the constants: "
+        "--gear-ratio picks one of the ratios it offers (default: its default ratio); "
+        "--supply-voltage-v, --gearbox-efficiency, --rotor-inertia-kg-m2 and the friction options "
+        "override its values; --resistance-ohm, --torque-constant-n-m-a and the datasheet "
+        "figures cannot go with it (they would replace the motor)",
+    )  # fmt: skip
     add_parameter_flags(motor, _motor_specs())
     datasheet = parser.add_argument_group(
         "motor from its datasheet (instead of --resistance-ohm and --torque-constant-n-m-a): "
@@ -142,14 +156,50 @@ def _with_options(message: str) -> str:
     return re.sub(r"\b(" + "|".join(names) + r")\b", lambda m: flag_name(m.group(1)), message)
 
 
+def _motor_from_file(arguments: argparse.Namespace, given: dict[str, float]) -> DcMotorParameters:
+    """The motor of the file --motor names, at --gear-ratio, with the other options' overrides.
+
+    Raises:
+        UsageError: the file's error (naming the file and the key), a ratio the file does not
+            offer, or an option that would replace the file's motor.
+        ValueError: an override DcMotorParameters refuses (named as its field).
+    """
+    path: Path = arguments.motor
+    electrical = [name for name in _ELECTRICAL if name in given]
+    datasheet = [name for name in _DATASHEET if getattr(arguments, name) is not None]
+    refused = [flag_name(name) for name in (*electrical, *datasheet)]
+    if refused:
+        raise UsageError(
+            f"{refused[0]} cannot go with --motor: the file gives the motor (leave out --motor "
+            "to give the motor by its constants or its datasheet figures)"
+        )
+    try:
+        spec = read_motor_file(path)
+    except MotorFileError as error:
+        raise UsageError(str(error)) from None
+    ratio = given.pop("gear_ratio", None)
+    try:
+        motor = spec.parameters(ratio)
+    except MotorSpecError as error:
+        option = "" if ratio is None else f"--gear-ratio {ratio:g} with "
+        raise UsageError(f"{option}--motor {path}: {error}") from None
+    return _check_ranges(dataclasses.replace(motor, **given))
+
+
 def motor_parameters_from_arguments(arguments: argparse.Namespace) -> DcMotorParameters:
     """The checked motor the options describe.
 
     Raises:
-        UsageError: a bad value (named as its option) or a wrong mix of options.
+        UsageError: a bad value (named as its option), a wrong mix of options or a motor file
+            that cannot be used (naming the file and the key).
     """
     given = {name: getattr(arguments, name) for name in _FIELDS}
     given = {name: value for name, value in given.items() if value is not None}
+    if arguments.motor is not None:
+        try:
+            return _motor_from_file(arguments, given)
+        except ValueError as error:
+            raise UsageError(_with_options(str(error))) from None
     stall = arguments.stall_torque_n_m
     no_load = arguments.no_load_speed_rad_s
     if arguments.no_load_speed_rpm is not None:
