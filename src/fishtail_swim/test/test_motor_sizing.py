@@ -14,7 +14,7 @@ from fishtail_plant.fish.fish import FishParameters
 from fishtail_plant.linkage_load.link_inertia import LinkInertia
 from fishtail_plant.linkage_load.tail_load import TailLoad
 from fishtail_plant.motor.dc_motor import DcMotorParameters
-from fishtail_swim.offline.full_duty_run import RunLimits, run_at_full_duty
+from fishtail_plant.motor.full_duty_run import RunLimits, run_at_full_duty
 from fishtail_swim.offline.motor_load_table import motor_load_rows
 from fishtail_swim.offline.motor_sizing import (
     OK,

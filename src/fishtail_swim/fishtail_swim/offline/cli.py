@@ -31,9 +31,9 @@ from fishtail_kinematics.engine.errors import FishtailKinematicsError
 from fishtail_plant.errors import SwimError
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.linkage_load.tail_load import TailLoad
+from fishtail_plant.motor.full_duty_run import DEFAULT_RUN_LIMITS
 from fishtail_swim.offline import animate, recorded_run, run_output
 from fishtail_swim.offline.fit_command import add_fit_parser, run_fit
-from fishtail_swim.offline.full_duty_run import DEFAULT_RUN_LIMITS
 from fishtail_swim.offline.inputs import (
     PROGRAM,
     link_inertia_from_arguments,

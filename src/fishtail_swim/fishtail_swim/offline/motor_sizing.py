@@ -34,7 +34,7 @@ from fishtail_plant.motor.duty import (
     speed_at_supply,
     torque_at_carrier,
 )
-from fishtail_swim.offline.full_duty_run import (
+from fishtail_plant.motor.full_duty_run import (
     DEFAULT_RUN_LIMITS,
     FullDutyRun,
     RunLimits,

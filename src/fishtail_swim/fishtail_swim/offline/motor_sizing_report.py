@@ -12,7 +12,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from fishtail_swim.offline.full_duty_run import FullDutyRun
+from fishtail_plant.motor.full_duty_run import FullDutyRun
 from fishtail_swim.offline.held_fish_table import held_fish_columns
 from fishtail_swim.offline.motor_sizing import MotorSizing, QuasiStaticRows, torque_at_carrier_n_m
 from fishtail_swim.offline.tables import Column, write_table
