@@ -56,8 +56,8 @@ def test_the_workspace_dependencies_have_no_cycle():
 
 #: The packages in the order of dependence (fishtail_msgs, interfaces only, may be used by all).
 LAYERS = (
-    "fishtail_msgs", "fishtail_common", "fishtail_kinematics", "fishtail_plant", "fishtail_driver",
-    "fishtail_pilot", "fishtail_swim", "fishtail_boards", "fishtail_bringup",
+    "fishtail_msgs", "fishtail_common", "fishtail_kinematics", "fishtail_plant", "fishtail_design",
+    "fishtail_driver", "fishtail_pilot", "fishtail_swim", "fishtail_boards", "fishtail_bringup",
 )  # fmt: skip
 
 

@@ -36,7 +36,7 @@ class Scores(NamedTuple):
 def constraint_list(problem: Problem) -> tuple[Constraint, ...]:
     """The problem's constraints in column order (they depend on its limits only)."""
     rows = problem.space.encode(_any_design(problem))[None, :]
-    return tuple(_evaluate(problem, rows)[1])
+    return tuple(score_designs(problem, problem.space.decode(rows))[1])
 
 
 def _any_design(problem: Problem) -> dict[str, float]:
@@ -48,10 +48,10 @@ def _any_design(problem: Problem) -> dict[str, float]:
     return values
 
 
-def _evaluate(
-    problem: Problem, rows: npt.ArrayLike
+def score_designs(
+    problem: Problem, designs: dict[str, FloatArray]
 ) -> tuple[Scores, dict[Constraint, FloatArray]]:
-    designs = problem.space.decode(rows)
+    """The scores and the named margins of ``designs`` (each variable by name, shape (N,))."""
     samples = problem.search.samples_per_beat
     linkages = OscillatoryLinkages(designs)
     stroke = linkages.stroke(samples)
@@ -72,4 +72,4 @@ def _evaluate(
 
 def evaluate_rows(problem: Problem, rows: npt.ArrayLike) -> Scores:
     """The scores of the designs ``rows`` (the optimiser's variables, one design per row)."""
-    return _evaluate(problem, rows)[0]
+    return score_designs(problem, problem.space.decode(rows))[0]

@@ -13,6 +13,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from fishtail_kinematics.engine.drive_batch import OscillatoryBatch
 from fishtail_plant.fish.fish import FloatArray
@@ -57,9 +58,9 @@ class OscillatoryLinkages:
         self.size = self.batch.size
 
     @property
-    def assembles(self) -> FloatArray:
+    def assembles(self) -> npt.NDArray[np.bool_]:
         """Whether each linkage assembles over the whole stroke."""
-        return self.batch.assembles
+        return np.asarray(self.batch.assembles, dtype=bool)
 
     def drive(self, carrier: CarrierMotion) -> TailDrive:
         """Every linkage turned by ``carrier`` (its angles broadcast against the designs)."""

@@ -18,7 +18,6 @@ from typing import NamedTuple
 import numpy as np
 
 from fishtail_design.errors import ProblemFileError
-from fishtail_design.performance import Performance
 from fishtail_plant.fish.fish import FloatArray
 
 
@@ -31,8 +30,8 @@ class Objective(NamedTuple):
     label: str
     maximise: bool
 
-    def value(self, figures: Performance) -> FloatArray:
-        """The objective's figure for every design."""
+    def value(self, figures: object) -> FloatArray:
+        """The objective's figure for every design (of the search's or the verified figures)."""
         return np.asarray(getattr(figures, self.field), dtype=float)
 
     def to_minimise(self, values: FloatArray) -> FloatArray:

@@ -26,7 +26,7 @@ from pymoo.core.problem import Problem as PymooProblem
 from pymoo.problems.static import StaticProblem
 
 from fishtail_design.errors import CheckpointError
-from fishtail_design.evaluation import FIGURES, Scores, constraint_list, evaluate_rows
+from fishtail_design.evaluation import Scores, constraint_list, evaluate_rows
 from fishtail_design.executors import Executor, evaluate_in_batches
 from fishtail_design.problem import Problem
 from fishtail_plant.fish.fish import FloatArray
@@ -72,24 +72,46 @@ def problem_fingerprint(problem: Problem) -> str:
     return digest.hexdigest()
 
 
-class _Space(PymooProblem):  # type: ignore[misc]
+class SearchSpace(NamedTuple):
+    """What the optimiser needs of a problem: bounds, directions, constraint scales, settings."""
+
+    lower: FloatArray
+    upper: FloatArray
+    maximise: tuple[bool, ...]  # per objective
+    scales: FloatArray  # per constraint: what a margin is divided by
+    population: int
+    generations: int
+    seed: int
+    fingerprint: str  # what a checkpoint must belong to
+
+    @classmethod
+    def of(cls, problem: Problem) -> SearchSpace:
+        """The search space of a synthesis problem."""
+        constraints = constraint_list(problem)
+        search = problem.search
+        return cls(
+            problem.space.lower, problem.space.upper,
+            tuple(objective.maximise for objective in problem.objectives),
+            np.array([constraint.scale for constraint in constraints]),
+            search.population, search.generations, search.seed, problem_fingerprint(problem),
+        )  # fmt: skip
+
+
+class _Space(PymooProblem):
     """The design space as pymoo sees it: bounds, objective and constraint counts."""
 
-    def __init__(self, problem: Problem, constraints: int) -> None:
-        space = problem.space
+    def __init__(self, space: SearchSpace) -> None:
         super().__init__(
-            n_var=len(space.names), n_obj=len(problem.objectives), n_ieq_constr=constraints,
+            n_var=space.lower.size, n_obj=len(space.maximise), n_ieq_constr=space.scales.size,
             xl=space.lower, xu=space.upper,
         )  # fmt: skip
 
 
-def _for_pymoo(problem: Problem, scores: Scores, scales: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _for_pymoo(space: SearchSpace, scores: Scores) -> tuple[FloatArray, FloatArray]:
     """F (minimised) and G (<= 0 met, scaled) of ``scores``, finite."""
-    objectives = np.stack(
-        [objective.to_minimise(scores.objectives[:, index])
-         for index, objective in enumerate(problem.objectives)], axis=1,
-    )  # fmt: skip
-    violation = -scores.margins / scales
+    signs = np.where(np.array(space.maximise), -1.0, 1.0)
+    objectives = scores.objectives * signs
+    violation = -scores.margins / space.scales
     feasible = np.all(violation <= 0.0, axis=1) & np.all(np.isfinite(objectives), axis=1)
     objectives = np.where(feasible[:, None] & np.isfinite(objectives), objectives, _WORST)
     violation = np.where(np.isfinite(violation), violation, _WORST)
@@ -134,14 +156,14 @@ def _load(path: Path, fingerprint: str) -> _Checkpoint:
     return checkpoint
 
 
-def _best(problem: Problem, scores: Scores, previous: tuple[float, ...]) -> tuple[float, ...]:
+def _best(space: SearchSpace, scores: Scores, previous: tuple[float, ...]) -> tuple[float, ...]:
     feasible = np.all(scores.margins >= 0.0, axis=1)
     best = []
-    for index, objective in enumerate(problem.objectives):
+    for index, maximise in enumerate(space.maximise):
         values = scores.objectives[feasible, index]
         values = values[np.isfinite(values)]
         candidates = [value for value in (*values.tolist(), previous[index]) if np.isfinite(value)]
-        pick = max if objective.maximise else min
+        pick = max if maximise else min
         best.append(pick(candidates) if candidates else float("nan"))
     return tuple(best)
 
@@ -154,61 +176,83 @@ def optimise(
     resume: bool = False,
     report: Callable[[GenerationReport], None] | None = None,
 ) -> SearchResult:
-    """Run the search to its last generation and return the final front.
+    """Run a synthesis problem's search to its last generation and return the final front.
 
     Raises:
         CheckpointError: ``resume`` from a checkpoint that is missing or of another problem.
         ExecutorError: a batch that failed or an executor that stopped answering.
     """
-    constraints = constraint_list(problem)
-    scales = np.array([constraint.scale for constraint in constraints])
-    space = _Space(problem, len(constraints))
-    fingerprint = problem_fingerprint(problem)
-    settings = problem.search
-    function = functools.partial(evaluate_rows, problem)
+    return search(SearchSpace.of(problem), functools.partial(evaluate_rows, problem), executor,
+                  batch_size, checkpoint, resume, report)  # fmt: skip
+
+
+def search(
+    space: SearchSpace,
+    function: Callable[[FloatArray], Scores],
+    executor: Executor,
+    batch_size: int,
+    checkpoint: Path | None = None,
+    resume: bool = False,
+    report: Callable[[GenerationReport], None] | None = None,
+) -> SearchResult:
+    """NSGA-II over ``space``, ``function`` scoring each batch of rows; the final front.
+
+    Raises:
+        CheckpointError: ``resume`` from a checkpoint that is missing or of another problem.
+        ExecutorError: a batch that failed or an executor that stopped answering.
+    """
+    pymoo_space = _Space(space)
+    objectives_count = len(space.maximise)
     if resume:
         if checkpoint is None:
             raise CheckpointError("--resume needs the checkpoint's --output-dir")
-        state = _load(checkpoint, fingerprint)
+        state = _load(checkpoint, space.fingerprint)
         algorithm, evaluated, best, spent = (state.algorithm, state.evaluated, state.best,
                                              state.elapsed_s)  # fmt: skip
     else:
-        algorithm = NSGA2(pop_size=settings.population, eliminate_duplicates=True)
-        algorithm.setup(space, termination=("n_gen", settings.generations), seed=settings.seed)
-        evaluated, best, spent = 0, (float("nan"),) * len(problem.objectives), 0.0
+        algorithm = NSGA2(pop_size=space.population, eliminate_duplicates=True)
+        algorithm.setup(pymoo_space, termination=("n_gen", space.generations), seed=space.seed)
+        evaluated, best, spent = 0, (float("nan"),) * objectives_count, 0.0
     started = time.monotonic() - spent
     while algorithm.has_next():
         population = algorithm.ask()
         rows = np.asarray(population.get("X"), dtype=float)
         scores = evaluate_in_batches(executor, function, rows, batch_size)
-        objectives, violation = _for_pymoo(problem, scores, scales)
-        Evaluator().eval(StaticProblem(space, F=objectives, G=violation), population)
+        objectives, violation = _for_pymoo(space, scores)
+        Evaluator().eval(StaticProblem(pymoo_space, F=objectives, G=violation), population)
         algorithm.tell(infills=population)
         evaluated += rows.shape[0]
-        best = _best(problem, scores, best)
+        best = _best(space, scores, best)
         elapsed = time.monotonic() - started
         if checkpoint is not None:
-            _save(checkpoint, _Checkpoint(_CHECKPOINT_FORMAT, fingerprint, algorithm, evaluated,
-                                          best, elapsed))  # fmt: skip
+            _save(checkpoint, _Checkpoint(_CHECKPOINT_FORMAT, space.fingerprint, algorithm,
+                                          evaluated, best, elapsed))  # fmt: skip
         if report is not None:
             done = algorithm.n_gen - 1
             feasible = int(np.sum(np.all(scores.margins >= 0.0, axis=1)))
-            report(GenerationReport(done, settings.generations, evaluated, feasible, best, elapsed))
-    return _front(problem, algorithm, evaluated, settings.generations)
+            report(GenerationReport(done, space.generations, evaluated, feasible, best, elapsed))
+    return _front(space, function, algorithm, evaluated)
 
 
-def _front(problem: Problem, algorithm: Any, evaluated: int, generations: int) -> SearchResult:
-    """The final population's feasible non-dominated designs, scored again in this process."""
+def _front(
+    space: SearchSpace, function: Callable[[FloatArray], Scores], algorithm: Any, evaluated: int
+) -> SearchResult:
+    """The final population's feasible non-dominated designs, scored again in this process.
+
+    Ordered by the first objective (best first).
+    """
     result = algorithm.result()
-    rows = np.atleast_2d(np.asarray(result.X, dtype=float)) if result.X is not None else None
-    if rows is None or rows.size == 0:
-        columns = (len(problem.objectives), len(constraint_list(problem)), len(FIGURES))
-        empty = Scores(*(np.empty((0, count)) for count in columns))
-        return SearchResult(np.empty((0, len(problem.space.names))), empty, evaluated, generations)
-    scores = evaluate_rows(problem, rows)
+    rows = np.empty((0, space.lower.size)) if result.X is None else np.atleast_2d(
+        np.asarray(result.X, dtype=float))  # fmt: skip
+    if rows.shape[0] == 0:
+        # An empty front: score one design for the columns' shapes and keep none of it.
+        probe = function(space.lower[None, :])
+        return SearchResult(rows, Scores(*(field[:0] for field in probe)), evaluated,
+                            space.generations)  # fmt: skip
+    scores = function(rows)
     feasible = np.all(scores.margins >= 0.0, axis=1)
-    order = np.argsort(-scores.objectives[:, 0] if problem.objectives[0].maximise
-                       else scores.objectives[:, 0], kind="stable")  # fmt: skip
+    first = scores.objectives[:, 0]
+    order = np.argsort(-first if space.maximise[0] else first, kind="stable")
     keep = order[feasible[order]]
     return SearchResult(rows[keep], Scores(*(field[keep] for field in scores)), evaluated,
-                        generations)  # fmt: skip
+                        space.generations)  # fmt: skip

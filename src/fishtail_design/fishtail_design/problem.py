@@ -242,9 +242,9 @@ def _band(value: object, key: str) -> Band:
 def _limits(values: Mapping[str, Any], fish: FishParameters, motor: MotorSpec) -> Limits:
     """The constraints section; the hull's room at O from the fish's spheroid by default."""
     _known(values, _CONSTRAINT_KEYS, "constraints.")
-    length = float(fish.body_length_m)  # type: ignore[arg-type]
-    diameter = float(fish.body_diameter_m)  # type: ignore[arg-type]
-    offset = float(fish.tail_origin_offset_m)  # type: ignore[arg-type]
+    length = float(fish.body_length_m)
+    diameter = float(fish.body_diameter_m)
+    offset = float(fish.tail_origin_offset_m)
     # A prolate spheroid's width at O, l_O behind its centre, and the hull's length behind O.
     width = diameter * math.sqrt(max(0.0, 1.0 - (2.0 * offset / length) ** 2))
     symmetry = _mapping(values.get("symmetry", {}), "constraints.symmetry")
@@ -263,8 +263,8 @@ def _limits(values: Mapping[str, Any], fish: FishParameters, motor: MotorSpec) -
         hull_width_at_o_m=number("hull_width_at_o_m", width),
         length_behind_o_m=number("length_behind_o_m", 0.5 * length - offset),
         min_transmission_angle_deg=_number(
-            values.get("min_transmission_angle_deg", 30.0), "constraints.min_transmission_angle_deg",
-            0.0, 90.0,
+            values.get("min_transmission_angle_deg", 30.0),
+            "constraints.min_transmission_angle_deg", 0.0, 90.0,
         ),
         symmetry=tolerances,
         motor_continuous_current_a=motor.continuous_current_a,

@@ -152,7 +152,8 @@ class DesignSpace:
         columns = dict(zip(self.names, x.T, strict=True))
         designs: dict[str, FloatArray] = {}
         for name, setting in self.settings.items():
-            designs[name] = columns[name] if _is_free(setting) else np.full(count, _bounds(setting)[0])
+            fixed = np.full(count, _bounds(setting)[0])
+            designs[name] = columns[name] if _is_free(setting) else fixed
         if self.symmetric_rocker:
             designs["rocker_link_m"] = symmetric_rocker_link(
                 designs["ring_radius_m"], designs["crank_link_m"], designs["pivot_offset_m"]
