@@ -86,7 +86,8 @@ def margins(stroke: Stroke, figures: Performance, limits: Limits) -> dict[Constr
             tolerances.time_share_warn - stroke.time_share_imbalance,
         Constraint("symmetry_mean_angle", "rad", tolerances.mean_angle_warn_rad or 1.0):
             tolerances.mean_angle_warn_rad - stroke.mean_angle_rad,
-        Constraint("swims", "m/s", 1.0): np.where(figures.speed_m_s > 0.0, figures.speed_m_s, -1.0),
+        # The balance speed, NaN (not met) for a tail whose thrust never beats the drag.
+        Constraint("swims", "m/s", 1.0): figures.speed_m_s,
         # Run as fast as the motor holds it, the two are equal: rounding must not count.
         Constraint("motor_torque", "N m", 1.0): figures.motor_torque_n_m
             - figures.peak_load_torque_n_m * (1.0 - _ROUNDING),
