@@ -18,16 +18,13 @@ import numpy as np
 import yaml
 
 from fishtail_common.parameter_files import load_parameter_file
+from fishtail_design.columns import figure_column, margin_column, objective_column
 from fishtail_design.evaluation import FIGURES
 from fishtail_design.outcome import Designs, Outcome
 from fishtail_design.variables import GEAR_RATIO, unit_of
 from fishtail_design.verification import Verified
 from fishtail_kinematics.engine.parameters import GEOMETRY_PARAMETER_NAMES, MECHANISM
 from fishtail_plant.motor.motor_file import write_motor_file
-
-
-def _unit_suffix(unit: str) -> str:
-    return "" if not unit else "_" + unit.replace("/", "_per_").replace(" ", "_")
 
 
 def front_columns(outcome: Outcome, designs: Designs) -> list[tuple[str, list[object]]]:
@@ -37,16 +34,15 @@ def front_columns(outcome: Outcome, designs: Designs) -> list[tuple[str, list[ob
     for name in problem.space.variable_names():
         columns.append((name, designs.values[name].tolist()))
     for index, objective in enumerate(problem.objectives):
-        name = f"{objective.name}{_unit_suffix(objective.unit)}"
-        columns.append((name, designs.scores.objectives[:, index].tolist()))
+        columns.append((objective_column(objective), designs.scores.objectives[:, index].tolist()))
     for index, constraint in enumerate(outcome.constraints):
-        name = f"margin_{constraint.name}{_unit_suffix(constraint.unit)}"
-        columns.append((name, designs.scores.margins[:, index].tolist()))
+        columns.append((margin_column(constraint), designs.scores.margins[:, index].tolist()))
     columns.append(("binding", list(designs.binding)))
     for index, field in enumerate(FIGURES):
-        columns.append((f"search_{field}", designs.scores.figures[:, index].tolist()))
+        columns.append((figure_column("search", field), designs.scores.figures[:, index].tolist()))
     for field in Verified._fields:
-        columns.append((f"verified_{field}", np.asarray(getattr(designs.verified, field)).tolist()))
+        values = np.asarray(getattr(designs.verified, field)).tolist()
+        columns.append((figure_column("verified", field), values))
     return columns
 
 
