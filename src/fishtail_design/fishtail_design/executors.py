@@ -1,0 +1,575 @@
+"""Where a population is evaluated: in this process, in local processes or on a Dask cluster.
+
+The synthesis evaluates its designs as batches, 2-D float arrays of designs x variables. An
+:class:`Executor` maps a batch function over them and hands each result back as it completes;
+:func:`evaluate_in_batches` splits the designs into batches, maps them and joins the results in
+row order, the same bit for bit whichever executor ran them and in whatever order they finished.
+
+A batch function is a top-level function, or a :func:`functools.partial` that binds a problem to
+one, that takes a batch and returns an array or a NamedTuple of arrays with a row per design. It
+travels to the other processes by pickling, as its module and name: every process that runs it,
+local or on another machine, must be able to import it, that is have the same fishtail install.
+
+The command line chooses with :func:`add_executor_arguments` and :func:`executor_from_arguments`:
+``--processes N`` (:class:`LocalProcessExecutor`), ``--workers N`` (a local Dask cluster) or
+``--scheduler tcp://HOST:PORT`` (an existing one, both :class:`DaskExecutor`), else
+:class:`InProcessExecutor`; ``--batch-size`` sets the designs per task. docs/design.md, "Scaling
+out", says how to run a cluster.
+
+>>> import functools
+>>> designs = np.arange(6.0).reshape(3, 2)
+>>> with InProcessExecutor() as executor:
+...     evaluate_in_batches(executor, functools.partial(np.multiply, 2.0), designs, 2)
+array([[ 0.,  2.],
+       [ 4.,  6.],
+       [ 8., 10.]])
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import concurrent.futures
+import multiprocessing
+import re
+import signal
+import threading
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures.process import BrokenProcessPool
+from typing import TYPE_CHECKING, Any, Protocol, Self, TypeVar, cast
+from urllib.parse import urlsplit
+
+import numpy as np
+import numpy.typing as npt
+
+from fishtail_common.command_line import add_parameter_options
+from fishtail_common.parameters import ParameterSpec
+from fishtail_design.errors import ExecutorError
+
+if TYPE_CHECKING:
+    from types import TracebackType
+
+    import distributed
+
+FloatArray = npt.NDArray[np.float64]
+#: What a batch function returns: an array or a NamedTuple of arrays, a row per design.
+R = TypeVar("R")
+
+#: The most designs in a task unless --batch-size says otherwise. A design takes 1 to 2 ms to
+#: evaluate (the search's cycle averages, on a 2-core machine), so that a task of 64 takes about
+#: 0.1 s: much more than a task's overhead (under a millisecond in a local pool, 10 to 20 ms on
+#: Dask), and the default population of 100 still makes two tasks.
+BATCH_SIZE = 64
+#: Seconds a Dask scheduler has to answer (and, without workers, to get one) before giving up.
+CONNECT_TIMEOUT_S = 10.0
+
+PROCESSES = ParameterSpec("processes", 2, "evaluate in N local processes", "", 1, 1024)
+WORKERS = ParameterSpec(
+    "workers", 2, "start a local Dask cluster of N single-threaded worker processes", "", 1, 1024
+)
+BATCH_SIZE_OPTION = ParameterSpec(
+    "batch_size",
+    BATCH_SIZE,
+    "most designs per task: larger batches cost less overhead, smaller ones keep more workers busy",
+    "",
+    1,
+    1_000_000,
+)
+
+
+class Executor(Protocol):
+    """Runs a batch function over batches, somewhere, and hands back each result as it completes.
+
+    Use it as a context manager, or call :meth:`close`: it may own processes or a connection.
+    """
+
+    @property
+    def description(self) -> str:
+        """Where the batches run, for progress lines: ``in-process``, ``4 local processes``."""
+        ...
+
+    def map_batches(
+        self, function: Callable[[FloatArray], R], batches: Sequence[FloatArray]
+    ) -> Iterator[tuple[int, R]]:
+        """``(index, function(batches[index]))`` for every batch, in the order they complete.
+
+        Args:
+            function: a picklable batch function (see the module's docstring).
+            batches: the batches, 2-D float arrays (designs x variables).
+
+        Raises:
+            ExecutorError: a batch that failed (naming its index and the exception's text), or
+                an executor that stopped answering; the batches not yet run are cancelled.
+        """
+        ...
+
+    def close(self) -> None:
+        """Stop what the executor started (processes, a cluster, a connection)."""
+        ...
+
+    def __enter__(self) -> Self:
+        """The executor itself."""
+        ...
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        """:meth:`close`."""
+        ...
+
+
+class _Closing:
+    """Context-manager use of an executor: ``close()`` on the way out."""
+
+    def close(self) -> None:
+        """Nothing to stop."""
+
+    def __enter__(self) -> Self:
+        """The executor itself."""
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        """:meth:`close`."""
+        self.close()
+
+
+def _one_line(text: str) -> str:
+    """``text`` with its lines joined by `` | `` (a worker's message may span several)."""
+    return " | ".join(line.strip() for line in text.strip().splitlines() if line.strip())
+
+
+def _failure(index: int, where: str, error: BaseException) -> str:
+    """The message of a failed batch: its index, where it ran, the exception's type and text."""
+    text = _one_line(str(error))
+    return f"batch {index} failed {where}: {type(error).__name__}" + (f": {text}" if text else "")
+
+
+class InProcessExecutor(_Closing):
+    """Runs the batches one after the other in this process (the default)."""
+
+    description = "in-process"
+
+    def map_batches(
+        self, function: Callable[[FloatArray], R], batches: Sequence[FloatArray]
+    ) -> Iterator[tuple[int, R]]:
+        """``(index, function(batches[index]))`` in batch order.
+
+        Raises:
+            ExecutorError: a batch whose function raised (chained to the exception).
+        """
+        for index, batch in enumerate(batches):
+            try:
+                result = function(batch)
+            except Exception as error:
+                raise ExecutorError(_failure(index, "in-process", error)) from error
+            yield index, result
+
+
+def _ignore_interrupts() -> None:
+    """A pool process's start: Ctrl-C is the parent's to handle (it cancels and shuts down)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class LocalProcessExecutor(_Closing):
+    """Runs the batches in a pool of local processes (``--processes N``).
+
+    The processes are spawned (new interpreters, not forks: the caller may hold threads) on the
+    first batches and kept until :meth:`close`; the batch function is pickled with each batch.
+    """
+
+    def __init__(self, processes: int) -> None:
+        """Prepare a pool of ``processes`` processes.
+
+        Raises:
+            ValueError: fewer than one process.
+        """
+        if processes < 1:
+            raise ValueError(f"a process pool needs at least one process, not {processes}")
+        self.processes = processes
+        self.description = f"{processes} local process{'' if processes == 1 else 'es'}"
+        self._pool = concurrent.futures.ProcessPoolExecutor(
+            max_workers=processes,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_ignore_interrupts,
+        )
+
+    def map_batches(
+        self, function: Callable[[FloatArray], R], batches: Sequence[FloatArray]
+    ) -> Iterator[tuple[int, R]]:
+        """``(index, function(batches[index]))`` as each batch completes in the pool.
+
+        Raises:
+            ExecutorError: a batch whose function raised, or a process that died.
+        """
+        index_of: dict[concurrent.futures.Future[R], int] = {}
+        try:
+            for index, batch in enumerate(batches):
+                try:
+                    index_of[self._pool.submit(function, batch)] = index
+                except BrokenProcessPool as error:
+                    raise ExecutorError(_failure(index, "to start", error)) from error
+            for future in concurrent.futures.as_completed(index_of):
+                index = index_of[future]
+                try:
+                    result = future.result()
+                except BrokenProcessPool as error:
+                    message = "a local process died (killed, out of memory?) while running it"
+                    raise ExecutorError(f"batch {index}: {message}: {error}") from error
+                except Exception as error:
+                    raise ExecutorError(_failure(index, "in a local process", error)) from error
+                yield index, result
+        finally:
+            for future in index_of:
+                future.cancel()
+
+    def close(self) -> None:
+        """Cancel the batches not started, wait for the running ones and end the processes."""
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _call(function: Callable[[FloatArray], R], batch: FloatArray) -> R:
+    """A Dask task: ``function(batch)`` (``function`` arrives as the scattered batch function)."""
+    return function(batch)
+
+
+def _import_distributed() -> Any:
+    """Dask's ``distributed``, imported on first use (in-process and local runs need no Dask).
+
+    Raises:
+        ExecutorError: it is not installed.
+    """
+    try:
+        import distributed
+    except ImportError as error:
+        raise ExecutorError(
+            f"--workers and --scheduler need Dask (pip install distributed): {error}"
+        ) from error
+    return distributed
+
+
+def _answers(address: str, timeout_s: float) -> None:
+    """Return once a Dask server at ``address`` has answered a handshake.
+
+    ``distributed.Client`` bounds the TCP connection by its timeout but not the handshake that
+    follows, so that an address that accepts and stays silent would hang it: this bounds both,
+    on an event loop of its own (the caller may be running one). The handshake gets a second
+    more than the connection, so that a refusal is reported as one.
+
+    Raises:
+        ExecutorError: no answer within ``timeout_s``, naming the address.
+    """
+    from distributed.comm.core import connect
+
+    async def handshake() -> None:
+        comm = await asyncio.wait_for(connect(address, timeout=timeout_s), timeout_s + 1.0)
+        await comm.close()
+
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(handshake())
+        except Exception as error:
+            failure.append(error)
+
+    thread = threading.Thread(target=run, name="dask-scheduler-probe", daemon=True)
+    thread.start()
+    thread.join(timeout_s + 6.0)
+    if thread.is_alive() or failure:
+        error = failure[0] if failure else None
+        raise ExecutorError(
+            f"the Dask scheduler at {address} does not answer within {timeout_s:g} s"
+            + _reason(error)
+        ) from error
+
+
+def _reason(error: BaseException | None) -> str:
+    """``: why`` from a failed connection (the refusal under Dask's "timed out"), or nothing."""
+    while error is not None and error.__cause__ is not None:
+        error = error.__cause__
+    if error is None or isinstance(error, TimeoutError) or not str(error):
+        return ""
+    text = re.sub(r"^in <[^>]*>: ", "", _one_line(str(error)))  # Dask's comm names its connector
+    return f": {text}"
+
+
+class DaskExecutor(_Closing):
+    """Runs the batches as the tasks of a Dask cluster (``--workers N``, ``--scheduler ADDRESS``).
+
+    With ``scheduler`` it connects to a running cluster; with ``workers`` it starts a
+    ``distributed.LocalCluster`` of single-threaded worker processes (which inherit this
+    process's environment) and stops it on :meth:`close`. Each :meth:`map_batches` sends the
+    batch function once to every worker and then one task per batch. A cluster's workers must
+    import the batch function: the same fishtail install on every machine.
+    """
+
+    def __init__(
+        self,
+        scheduler: str | None = None,
+        *,
+        workers: int | None = None,
+        timeout_s: float | None = None,
+    ) -> None:
+        """Connect to ``scheduler``, or start a local cluster of ``workers`` workers.
+
+        Args:
+            scheduler: a running scheduler's address, ``tcp://HOST:PORT``.
+            workers: without ``scheduler``: the local cluster's worker processes.
+            timeout_s: how long the scheduler has to answer, and, if it has no workers, to get
+                one (default :data:`CONNECT_TIMEOUT_S`).
+
+        Raises:
+            ValueError: both or neither of ``scheduler`` and ``workers``, or fewer than one worker.
+            ExecutorError: Dask is not installed, the scheduler does not answer or has no
+                workers, or the local cluster does not start.
+        """
+        if (scheduler is None) == (workers is None):
+            raise ValueError("DaskExecutor: give a scheduler's address or a number of workers")
+        if workers is not None and workers < 1:
+            raise ValueError(f"a Dask cluster needs at least one worker, not {workers}")
+        timeout_s = CONNECT_TIMEOUT_S if timeout_s is None else timeout_s
+        dask = _import_distributed()
+        self._cluster: distributed.LocalCluster | None = None
+        self._client: distributed.Client
+        if scheduler is not None:
+            self.address = scheduler
+            self._client = self._connect(dask, scheduler, timeout_s)
+            place = f"Dask at {scheduler}"
+        else:
+            try:
+                self._cluster = dask.LocalCluster(
+                    n_workers=workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                )
+                self._client = dask.Client(self._cluster, set_as_default=False)
+            except Exception as error:
+                if self._cluster is not None:
+                    self._cluster.close()
+                raise ExecutorError(
+                    f"could not start a local Dask cluster of {workers} workers: "
+                    f"{type(error).__name__}: {_one_line(str(error))}"
+                ) from error
+            self.address = str(self._cluster.scheduler_address)
+            place = f"local Dask cluster at {self.address}"
+        self.description = f"{place}, {self._workers()}"
+
+    @staticmethod
+    def _connect(dask: Any, address: str, timeout_s: float) -> distributed.Client:
+        """A client of the scheduler at ``address`` that has at least one worker."""
+        _answers(address, timeout_s)
+        try:
+            client = dask.Client(address, timeout=timeout_s, set_as_default=False)
+        except (OSError, TimeoutError) as error:
+            raise ExecutorError(
+                f"the Dask scheduler at {address} does not answer within {timeout_s:g} s"
+                + _reason(error)
+            ) from error
+        try:
+            client.wait_for_workers(1, timeout=timeout_s)
+        except (OSError, TimeoutError) as error:
+            client.close()
+            raise ExecutorError(
+                f"the Dask scheduler at {address} has no workers after {timeout_s:g} s: start "
+                f"`dask worker {address}` on each machine"
+            ) from error
+        return client
+
+    def _workers(self) -> str:
+        """``2 workers`` (``2 workers, 8 threads`` when a worker runs several tasks at once)."""
+        threads = cast(dict[str, int], self._client.nthreads())
+        count, total = len(threads), sum(threads.values())
+        text = f"{count} worker{'' if count == 1 else 's'}"
+        return text if total == count else f"{text}, {total} threads"
+
+    def map_batches(
+        self, function: Callable[[FloatArray], R], batches: Sequence[FloatArray]
+    ) -> Iterator[tuple[int, R]]:
+        """``(index, function(batches[index]))`` as each task completes on the cluster.
+
+        The batch function is scattered to every worker once, then each batch is a task.
+
+        Raises:
+            ExecutorError: the workers cannot take the batch function (they lack its module),
+                a batch's task raised (its exception's text), or the scheduler went away.
+        """
+        from distributed import as_completed
+
+        client = self._client
+        try:
+            shared = client.scatter(function, broadcast=True, hash=False)
+        except Exception as error:
+            raise ExecutorError(
+                f"the Dask workers at {self.address} cannot take the batch function (every "
+                f"worker needs the same fishtail install): {type(error).__name__}: "
+                f"{_one_line(str(error))}"
+            ) from error
+        run = uuid.uuid4().hex[:8]
+        pending = {
+            client.submit(_call, shared, batch, key=f"fishtail-batch-{run}-{index}"): index
+            for index, batch in enumerate(batches)
+        }
+        try:
+            for future in as_completed(list(pending), loop=client.loop):
+                index = pending.pop(future)
+                try:
+                    result = cast("R", future.result())
+                except Exception as error:
+                    raise ExecutorError(
+                        _failure(index, f"on Dask at {self.address}", error)
+                    ) from error
+                future.release()  # the worker may drop the result
+                yield index, result
+        finally:
+            if pending:
+                client.cancel(list(pending))
+            shared.release()
+
+    def close(self) -> None:
+        """Disconnect; stop the local cluster if this executor started it."""
+        self._client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
+def evaluate_in_batches(
+    executor: Executor,
+    function: Callable[[FloatArray], R],
+    designs: npt.ArrayLike,
+    batch_size: int,
+    progress: Callable[[int], None] | None = None,
+) -> R:
+    """``function`` over the rows of ``designs``, batch by batch on ``executor``, joined in order.
+
+    The rows are shared out evenly over as few batches of at most ``batch_size`` rows as will do
+    (100 rows at 64 a batch: two of 50), each batch a copy; no rows make one empty batch. The
+    results are joined in row order whatever order they complete in: arrays, or each field of a
+    NamedTuple of arrays, concatenated along their first axis.
+
+    Args:
+        executor: where the batches run.
+        function: a picklable batch function returning an array or a NamedTuple of arrays with
+            a row per design.
+        designs: the designs, a 2-D float array (designs x variables).
+        batch_size: the most designs in a batch, at least one.
+        progress: called with the number of designs done each time a batch's result arrives.
+
+    Raises:
+        ValueError: ``designs`` not 2-D, a batch size below one, or a result that is not an
+            array or NamedTuple of arrays with a row per design of its batch.
+        ExecutorError: a batch that failed, from the executor.
+    """
+    rows = np.asarray(designs, dtype=np.float64)
+    if rows.ndim != 2:
+        raise ValueError(f"designs must be a 2-D array (designs x variables), not {rows.ndim}-D")
+    if batch_size < 1:
+        raise ValueError(f"batch size must be at least 1, not {batch_size}")
+    count = max(1, -(-rows.shape[0] // batch_size))
+    batches = [batch.copy() for batch in np.array_split(rows, count)]
+    results: dict[int, R] = {}
+    done = 0
+    for index, result in executor.map_batches(function, batches):
+        _check_rows(index, result, batches[index].shape[0])
+        results[index] = result
+        done += batches[index].shape[0]
+        if progress is not None:
+            progress(done)
+    if len(results) != len(batches):
+        missing = sorted(set(range(len(batches))) - set(results))
+        raise ExecutorError(f"{executor.description} returned no result for batches {missing}")
+    return _joined([results[index] for index in range(len(batches))])
+
+
+def _parts(result: object) -> tuple[tuple[str, object], ...]:
+    """A result's arrays by name: the fields of a NamedTuple, or ``result`` for an array."""
+    fields = getattr(result, "_fields", None)
+    if isinstance(result, tuple) and fields is not None:
+        return tuple(zip(fields, result, strict=True))
+    return (("result", result),)
+
+
+def _check_rows(index: int, result: object, rows: int) -> None:
+    """Refuse a result whose arrays do not have a row per design of batch ``index``."""
+    for name, value in _parts(result):
+        if not isinstance(value, np.ndarray) or value.ndim == 0 or value.shape[0] != rows:
+            shape = value.shape if isinstance(value, np.ndarray) else type(value).__name__
+            raise ValueError(
+                f"batch {index}: {name} must be an array with a row per design ({rows}), "
+                f"not {shape}"
+            )
+
+
+def _joined(results: list[R]) -> R:
+    """The results of the batches in order, joined: arrays (or NamedTuple fields) concatenated."""
+    first = results[0]
+    if isinstance(first, np.ndarray):
+        return cast("R", np.concatenate(cast(list[np.ndarray], results)))
+    columns = zip(*cast(list[tuple[np.ndarray, ...]], results), strict=True)
+    return type(first)(*(np.concatenate(column) for column in columns))
+
+
+def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--processes N``, ``--workers N`` or ``--scheduler tcp://HOST:PORT``, and ``--batch-size``.
+
+    The first three are mutually exclusive (none: in this process); values out of range are
+    argparse errors. :func:`executor_from_arguments` builds the executor they name.
+    """
+    group = parser.add_argument_group(
+        "where the designs are evaluated (default: in this process)",
+        "A Dask cluster's workers need the same fishtail install as this machine; "
+        "docs/design.md, Scaling out.",
+    )
+    where = group.add_mutually_exclusive_group()
+    add_parameter_options(where, [PROCESSES, WORKERS], optional=True)
+    where.add_argument(
+        "--scheduler",
+        type=scheduler_address,
+        metavar="tcp://HOST:PORT",
+        help="evaluate on the running Dask cluster whose scheduler is there",
+    )
+    add_parameter_options(group, [BATCH_SIZE_OPTION])
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler's address, ``tcp://HOST:PORT``, as argparse checks it.
+
+    Raises:
+        argparse.ArgumentTypeError: another form.
+
+    >>> scheduler_address("tcp://10.0.0.5:8786")
+    'tcp://10.0.0.5:8786'
+    """
+    try:
+        parts = urlsplit(text)
+        port = parts.port
+    except ValueError:
+        port = None
+    else:
+        if parts.scheme == "tcp" and parts.hostname and port and not (parts.path or parts.query):
+            return text
+    raise argparse.ArgumentTypeError(f"expected tcp://HOST:PORT, got {text!r}")
+
+
+def executor_from_arguments(arguments: argparse.Namespace) -> Executor:
+    """The executor that :func:`add_executor_arguments`'s options name.
+
+    Raises:
+        ExecutorError: a Dask cluster that does not start or a scheduler that does not answer.
+    """
+    if arguments.processes is not None:
+        return LocalProcessExecutor(arguments.processes)
+    if arguments.workers is not None:
+        return DaskExecutor(workers=arguments.workers)
+    if arguments.scheduler is not None:
+        return DaskExecutor(arguments.scheduler)
+    return InProcessExecutor()
