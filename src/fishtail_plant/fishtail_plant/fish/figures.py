@@ -459,7 +459,8 @@ def _bisect(
     The Illinois variant of regula falsi (Dowell and Jarratt 1971): a secant step inside the
     bracket, the stale end's value halved when the same end moves twice, so that it converges
     superlinearly (about a dozen evaluations to rounding, against 64 bisections) and can never
-    leave the bracket. It stops once every bracket is within rounding of its root.
+    leave the bracket. Each element stops once its bracket is within 1e-12 of its root, so that
+    its result does not depend on the other elements of the batch.
     """
     f_low, f_high = net(low), net(high)
     # Elements without a sign change have no root to refine (the caller says what they mean).
@@ -467,8 +468,8 @@ def _bisect(
     side = np.zeros(np.shape(low))
     for _ in range(_BISECTIONS):
         width = high - low
-        done = width <= _ROOT_TOLERANCE * np.maximum(np.abs(high), _ROOT_FLOOR_M_S)
-        if np.all(done | ~bracketed):
+        active = bracketed & (width > _ROOT_TOLERANCE * np.maximum(np.abs(high), _ROOT_FLOOR_M_S))
+        if not np.any(active):
             break
         with np.errstate(invalid="ignore", divide="ignore"):
             secant = high - f_high * width / (f_high - f_low)
@@ -476,14 +477,17 @@ def _bisect(
         inside = (secant > low) & (secant < high)
         middle = np.where(inside, secant, 0.5 * (low + high))
         f_middle = net(middle)
-        above = f_middle > 0.0
+        # A converged element stays where it is: its root does not depend on the others'.
+        above = np.where(active, f_middle > 0.0, False)
+        f_middle = np.where(active, f_middle, f_high)
+        middle = np.where(active, middle, high)
         # The root lies above ``middle``: it becomes the low end; the high end's value is
         # halved when the high end stayed for a second time in a row (Illinois).
         low, f_low = np.where(above, middle, low), np.where(above, f_middle, f_low)
         high, f_high = np.where(above, high, middle), np.where(above, f_high, f_middle)
         f_high = np.where(above & (side > 0.0), 0.5 * f_high, f_high)
-        f_low = np.where(~above & (side < 0.0), 0.5 * f_low, f_low)
-        side = np.where(above, 1.0, -1.0)
+        f_low = np.where(active & ~above & (side < 0.0), 0.5 * f_low, f_low)
+        side = np.where(active, np.where(above, 1.0, -1.0), side)
     return np.asarray(np.where(np.abs(f_low) < np.abs(f_high), low, high), dtype=float)
 
 
