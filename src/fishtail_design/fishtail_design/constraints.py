@@ -67,15 +67,27 @@ def _band_margins(name: str, unit: str, values: FloatArray, band: Band, scale: f
     return margins
 
 
-def margins(stroke: Stroke, figures: Performance, limits: Limits) -> dict[Constraint, FloatArray]:
-    """Every constraint's margin for every design (NaN figures count as unmet)."""
+def margins(
+    stroke: Stroke, figures: Performance, limits: Limits, second_loop: bool = False
+) -> dict[Constraint, FloatArray]:
+    """Every constraint's margin for every design (NaN figures count as unmet).
+
+    ``second_loop``: the mechanism has one (mechanism 2), and its margin ``second_loop``
+    applies: the smallest of its signed lengths (the pin U short of W's joint, W between V and
+    T, the slider A behind S, U inside AV's slot over the stroke); unmet without a distance
+    where the engine refused the loop during its sweep or the drive gives it no swing.
+    """
     length = max(limits.hull_width_at_o_m, limits.length_behind_o_m)
     tolerances = limits.symmetry
     continuous = min(limits.motor_continuous_current_a, limits.driver_continuous_current_a)
     peak = min(limits.motor_peak_current_a, limits.driver_peak_current_a)
-    result = {
+    loops = {
         Constraint("assembly_inner", "m", length): stroke.assembly_inner_m,
         Constraint("assembly_outer", "m", length): stroke.assembly_outer_m,
+    }
+    if second_loop:
+        loops[Constraint("second_loop", "m", length)] = stroke.second_loop_m
+    result = loops | {
         Constraint("transmission_angle", "deg", limits.min_transmission_angle_deg or 1.0):
             np.degrees(stroke.transmission_angle_rad) - limits.min_transmission_angle_deg,
         Constraint("hull_width", "m", length):
@@ -112,6 +124,13 @@ def feasible(margin_table: Mapping[Constraint, FloatArray]) -> FloatArray:
 
 
 def binding(margin_table: Mapping[Constraint, FloatArray], index: int) -> str:
-    """The constraint closest to binding for design ``index`` (its smallest scaled margin)."""
+    """The constraint closest to binding for design ``index`` (its smallest scaled margin).
+
+    A margin that could not be measured (-inf: the linkage does not assemble) follows from a
+    measured one that fails, where there is one: that one is named.
+    """
     scaled = {key.name: float(value[index]) / key.scale for key, value in margin_table.items()}
+    measured = {name: value for name, value in scaled.items() if math.isfinite(value)}
+    if measured and min(measured.values()) < 0.0:
+        scaled = measured
     return min(scaled, key=lambda name: scaled[name])

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_design.constraints import Constraint, margins
-from fishtail_design.linkages import OscillatoryLinkages, Stroke
+from fishtail_design.linkages import LINKAGE_TYPES, Stroke
 from fishtail_design.performance import Performance, performance
 from fishtail_design.problem import Problem
 from fishtail_design.variables import CARRIER_SPEED, GEAR_RATIO, GEARBOX_EFFICIENCY
@@ -53,8 +53,8 @@ def score_designs(
 ) -> tuple[Scores, dict[Constraint, FloatArray]]:
     """The scores and the named margins of ``designs`` (each variable by name, shape (N,))."""
     samples = problem.search.samples_per_beat
-    linkages = OscillatoryLinkages(designs)
-    stroke = linkages.stroke(samples)
+    linkages = LINKAGE_TYPES[problem.mechanism](designs)
+    stroke = linkages.stroke(samples, problem.limits.length_behind_o_m)
     motor = MotorConstants.of(
         problem.motor.parameters(problem.motor.default_gear_ratio),
         designs[GEAR_RATIO], designs[GEARBOX_EFFICIENCY],
@@ -64,7 +64,7 @@ def score_designs(
         linkages, problem.fish, motor, designs[CARRIER_SPEED], samples,
         problem.turning_depth if turning else None,
     )  # fmt: skip
-    table = margins(stroke, figures, problem.limits)
+    table = margins(stroke, figures, problem.limits, linkages.has_second_loop)
     objectives = np.stack([objective.value(figures) for objective in problem.objectives], axis=1)
     columns = np.stack([*figures, *stroke], axis=1)
     return Scores(objectives, np.stack(list(table.values()), axis=1), columns), table

@@ -1,23 +1,50 @@
 """A population of linkages: the geometry's constraints and the tail drive of every design.
 
 :class:`OscillatoryLinkages` holds mechanism 1's designs as one
-:class:`~fishtail_kinematics.engine.drive_batch.OscillatoryBatch` and measures, over one stroke,
-what the hull and the monitor ask of a linkage: that it assembles, its smallest transmission
-angle, the room it takes at O, and how symmetric its swing is by the monitor's own statistics.
-What each margin means: docs/design.md ("Constraints").
+:class:`~fishtail_kinematics.engine.drive_batch.OscillatoryBatch`; :class:`UndulatoryLinkages`
+holds mechanism 2's as one engine tail per design (the second loop's solver is fitted to each
+geometry). Both measure, over one stroke, what the hull and the monitor ask of a linkage: that
+it assembles, its smallest transmission angle, the room it takes at O, and how symmetric its
+swing is by the monitor's own statistics. :data:`LINKAGE_TYPES` gives the class of each
+mechanism. What each margin means: docs/design.md ("Constraints").
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Callable, Mapping
+from typing import ClassVar, NamedTuple, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_design.variables import LINKAGE_VARIABLES
 from fishtail_kinematics.engine.drive_batch import OscillatoryBatch
+from fishtail_kinematics.engine.errors import (
+    AssemblyError,
+    InvalidLengthError,
+    PinOffsetError,
+    SolverError,
+)
+from fishtail_kinematics.engine.geometry import OSCILLATORY, UNDULATORY, UndulatoryGeometry
+from fishtail_kinematics.engine.undulatory_tail import UndulatoryTail
 from fishtail_plant.fish.fish import FloatArray
-from fishtail_plant.fish.tail_drive import CarrierMotion, LinkageBatchDrive, TailDrive
+from fishtail_plant.fish.steady_turn import PerFishDrive
+from fishtail_plant.fish.tail_drive import (
+    CarrierMotion,
+    EngineTailDrive,
+    LinkageBatchDrive,
+    TailAcceleration,
+    TailDrive,
+    TailSample,
+)
+
+#: What the engine raises for a mechanism-2 geometry it cannot build: the design does not assemble.
+ENGINE_REFUSALS = (AssemblyError, PinOffsetError, SolverError, InvalidLengthError)
+#: Carrier angles a mechanism-2 tail is solved at once built: next to a toggle pose the engine
+#: builds a tail whose Newton solve from its seed then fails (a pin 1e-5 m from the fold), and
+#: such a design is refused like one the engine would not build.
+CHECK_SAMPLES = 128
 
 
 class Stroke(NamedTuple):
@@ -25,12 +52,34 @@ class Stroke(NamedTuple):
 
     assembly_inner_m: FloatArray  # OS - |RS - PR|
     assembly_outer_m: FloatArray  # RS + PR - sqrt(OS² + R²)
+    second_loop_m: FloatArray  # mechanism 2's loop A-U-V-W (UndulatoryLinkages); NaN: none
     transmission_angle_rad: FloatArray  # the smallest over the stroke, in [0, pi/2]
-    half_width_m: FloatArray  # how far from the body axis the drive reaches (ring gear, R)
+    half_width_m: FloatArray  # how far from the body axis the linkage reaches inside the hull
     length_behind_o_m: FloatArray  # how far behind O the drive reaches (S, R)
     time_share_imbalance: FloatArray  # |share of the revolution with theta3 > 0 - 1/2|
     mean_angle_rad: FloatArray  # |mean theta3 over the carrier angle|
     tip_excursion_m: FloatArray  # peak to peak of the tip's y
+
+
+class Linkages(Protocol):
+    """What the search asks of a population of one mechanism's linkages (one per design)."""
+
+    #: Whether the mechanism has a second loop, whose margin ``second_loop`` then applies.
+    has_second_loop: ClassVar[bool]
+    size: int
+
+    @property
+    def assembles(self) -> npt.NDArray[np.bool_]:
+        """Whether each linkage assembles over the whole stroke."""
+
+    def drive(self, carrier: CarrierMotion) -> TailDrive:
+        """Every linkage turned by ``carrier`` (its angles broadcast against the designs)."""
+
+    def stroke(self, samples: int, hull_length_m: float = math.inf) -> Stroke:
+        """The stroke's figures from ``samples`` carrier angles over a revolution.
+
+        ``hull_length_m``: where the hull ends behind O (joints beyond it are in the water).
+        """
 
 
 def positive_share(values: FloatArray) -> FloatArray:
@@ -38,18 +87,32 @@ def positive_share(values: FloatArray) -> FloatArray:
 
     Linear between samples: each interval counts the part of it on the positive side, so that
     the share is resolved far below one sample (the monitor's WARN limit is 0.005 of a beat).
+    NaN for a column with a NaN sample (a linkage without a pose).
     """
     here, ahead = values, np.roll(values, -1, axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         crossing = np.where(here > 0.0, here / (here - ahead), ahead / (ahead - here))
     part = np.where((here > 0.0) == (ahead > 0.0), (here > 0.0).astype(float), crossing)
-    return np.asarray(part.mean(axis=0), dtype=float)
+    share = part.mean(axis=0)
+    return np.asarray(np.where(np.isnan(values).any(axis=0), np.nan, share), dtype=float)
+
+
+def _revolution(samples: int) -> FloatArray:
+    """``samples`` carrier angles over one revolution, from 0."""
+    return np.arange(samples, dtype=np.float64) * (2.0 * math.pi / samples)
+
+
+def drive_transmission_sine(theta1: FloatArray, theta2: FloatArray) -> FloatArray:
+    """|sin| of the angle at R between PR and RS (docs/design.md): 1 best, 0 at the toggle."""
+    return np.asarray(np.abs(np.sin(theta1 + theta2)), dtype=np.float64)
 
 
 class OscillatoryLinkages:
     """Mechanism 1's designs, one linkage per element of the length arrays."""
 
-    def __init__(self, designs: dict[str, FloatArray]) -> None:
+    has_second_loop: ClassVar[bool] = False
+
+    def __init__(self, designs: Mapping[str, FloatArray]) -> None:
         """The linkages of ``designs`` (the lengths of :data:`LINKAGE_VARIABLES`)."""
         self.batch = OscillatoryBatch(
             designs["ring_radius_m"], designs["crank_link_m"], designs["rocker_link_m"],
@@ -66,21 +129,300 @@ class OscillatoryLinkages:
         """Every linkage turned by ``carrier`` (its angles broadcast against the designs)."""
         return LinkageBatchDrive(self.batch, carrier)
 
-    def stroke(self, samples: int) -> Stroke:
-        """The stroke's figures from ``samples`` carrier angles over a revolution."""
-        angles = (np.arange(samples) * (2.0 * math.pi / samples))[:, None]
-        state = self.batch.solve(angles, 1.0)
+    def stroke(self, samples: int, hull_length_m: float = math.inf) -> Stroke:
+        """The stroke's figures from ``samples`` carrier angles over a revolution.
+
+        The drive lies inside the hull whatever its length: ``hull_length_m`` is not used.
+        """
+        state = self.batch.solve(_revolution(samples)[:, None], 1.0)
         c = self.batch.constants
-        # sin(theta1 + theta2) is the sine of the angle at R between PR and RS (docs/design.md).
-        sine = np.abs(np.sin(state.theta1 + state.theta2)).min(axis=0)
+        theta1, theta2 = np.asarray(state.theta1), np.asarray(state.theta2)
+        sine = drive_transmission_sine(theta1, theta2).min(axis=0)
         joint_x = c.pivot_offset_m + c.rocker_link_m * np.cos(state.theta2)
         joint_y = c.rocker_link_m * np.sin(state.theta2)
         inner, outer = self.batch.assembly_margins_m
         theta3 = np.asarray(state.theta3)
         return Stroke(
-            inner, outer, np.arcsin(np.minimum(sine, 1.0)),
+            inner, outer, np.full(self.size, np.nan), np.arcsin(np.minimum(sine, 1.0)),
             np.maximum(c.ring_radius_m, np.abs(joint_y).max(axis=0)),
             np.maximum(c.pivot_offset_m, joint_x.max(axis=0)),
             np.abs(positive_share(theta3) - 0.5), np.abs(theta3.mean(axis=0)),
             np.ptp(np.asarray(state.tip_y), axis=0),
         )  # fmt: skip
+
+
+def second_loop_conditions(designs: Mapping[str, FloatArray]) -> FloatArray:
+    """Mechanism 2's loop conditions that need no swing, as signed lengths [m], shape (3, N).
+
+    > 0 where each holds: the pin U on SW short of W's joint, SW - VW - SU (the engine's
+    ``0 < SU < SW - VW``); W between V and T, VT - VW; the slider A behind S in the straight
+    pose, AS = AV + VW - SW.
+    """
+    sw, vw = designs["swing_arm_m"], designs["fin_joint_offset_m"]
+    return np.array([
+        sw - vw - designs["pin_offset_m"],
+        designs["fin_link_m"] - vw,
+        designs["slotted_link_m"] + vw - sw,
+    ])  # fmt: skip
+
+
+def loop_transmission_sine(
+    theta4: FloatArray, theta5: FloatArray, pin_distance_m: FloatArray, slotted_link_m: FloatArray
+) -> FloatArray:
+    """|sin| of mechanism 2's second-loop transmission angle (docs/design.md): 1 best, 0 toggle.
+
+    The slotted link AV can push the fin link at V only across the path V follows on AV when the
+    slider A moves with SW held (frictionless slide and slot), d V / d AS =
+    (-1 + AV sin²θ4 / AU, -AV sin θ4 cos θ4 / AU); the angle between that force and VW is the
+    transmission angle, whose sine is |e(θ5) · dV/dAS| / |dV/dAS|. It is 0 exactly where the
+    engine's Newton slope in AS vanishes (the toggle pose).
+    """
+    sin4, cos4 = np.sin(theta4), np.cos(theta4)
+    lever = slotted_link_m * sin4 / pin_distance_m
+    path_x = lever * sin4 - 1.0
+    path_y = -lever * cos4
+    along = np.abs(np.cos(theta5) * path_x + np.sin(theta5) * path_y)
+    return np.asarray(along / np.hypot(path_x, path_y), dtype=float)
+
+
+class _NoPose:
+    """The drive of a design that does not assemble: NaN at any time (a batch keeps its shape)."""
+
+    def sample(self, time_s: npt.ArrayLike) -> TailSample:
+        """NaN shaped like ``time_s``."""
+        nan = np.full(np.shape(time_s), np.nan)
+        return TailSample(nan, nan, nan, nan, nan, nan)
+
+    def acceleration(self, time_s: npt.ArrayLike) -> TailAcceleration:
+        """NaN shaped like ``time_s``."""
+        nan = np.full(np.shape(time_s), np.nan)
+        return TailAcceleration(nan, nan, nan)
+
+
+class _ClosedOrNaN:
+    """A design's drive, NaN at times where its loop does not close (next to a toggle pose)."""
+
+    def __init__(self, drive: TailDrive) -> None:
+        self.drive = drive
+
+    def sample(self, time_s: npt.ArrayLike) -> TailSample:
+        """The drive's sample, NaN if the engine's solve fails."""
+        try:
+            return self.drive.sample(time_s)
+        except SolverError:
+            return _NoPose().sample(time_s)
+
+    def acceleration(self, time_s: npt.ArrayLike) -> TailAcceleration:
+        """The drive's accelerations, NaN if the engine's solve fails."""
+        try:
+            return self.drive.acceleration(time_s)
+        except SolverError:
+            return _NoPose().acceleration(time_s)
+
+
+def _column(values: FloatArray, index: int) -> FloatArray:
+    """Design ``index``'s column of a per-design array (..., N); a shared (..., 1) as it is."""
+    array = np.asarray(values, dtype=float)
+    return array[..., index : index + 1] if array.ndim and array.shape[-1] > 1 else array
+
+
+def column_carrier(carrier: CarrierMotion, index: int) -> CarrierMotion:
+    """Design ``index``'s carrier of a carrier for the whole population (one speed per design).
+
+    The population's carrier is evaluated at the design's times (a column, broadcast against
+    every design's speed) and the design's column kept: a carrier is a function of time and
+    each design's own settings, which this needs no knowledge of.
+    """
+
+    def motion(time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        angle, rate, acceleration = carrier(time_s)
+        return _column(angle, index), _column(rate, index), _column(acceleration, index)
+
+    return motion
+
+
+class _Remembered:
+    """A drive that answers the times it was last asked from memory.
+
+    The search asks a population's drive the same times again and again (the balance, then the
+    load at the same samples; the turning figure's bisection varies the yaw rate at fixed tail
+    motion); a mechanism-2 population is solved design by design, so each repeat would cost a
+    solve per design. The remembered arrays are read-only.
+    """
+
+    def __init__(self, drive: TailDrive) -> None:
+        self.drive = drive
+        self._sample: tuple[FloatArray, TailSample] | None = None
+        self._acceleration: tuple[FloatArray, TailAcceleration] | None = None
+
+    def sample(self, time_s: npt.ArrayLike) -> TailSample:
+        """The drive's sample at ``time_s``, from memory when the times are the last ones."""
+        times = np.asarray(time_s, dtype=float)
+        if self._sample is None or not _same(self._sample[0], times):
+            self._sample = (times.copy(), TailSample(*_frozen(self.drive.sample(times))))
+        return self._sample[1]
+
+    def acceleration(self, time_s: npt.ArrayLike) -> TailAcceleration:
+        """The drive's accelerations at ``time_s``, from memory when the times are the last ones."""
+        times = np.asarray(time_s, dtype=float)
+        if self._acceleration is None or not _same(self._acceleration[0], times):
+            values = TailAcceleration(*_frozen(self.drive.acceleration(times)))
+            self._acceleration = (times.copy(), values)
+        return self._acceleration[1]
+
+
+def _same(remembered: FloatArray, times: FloatArray) -> bool:
+    # NaN times (the carrier of a design without a speed) are the same times.
+    same = np.array_equal(remembered, times, equal_nan=True)
+    return remembered.shape == times.shape and bool(same)
+
+
+def _frozen(values: tuple[FloatArray, ...]) -> list[FloatArray]:
+    arrays = []
+    for value in values:
+        array = np.array(value, dtype=float)
+        array.setflags(write=False)
+        arrays.append(array)
+    return arrays
+
+
+class UndulatoryLinkages:
+    """Mechanism 2's designs: one engine tail per design, None where the engine refuses it.
+
+    The engine's second loop is solved by Newton's method from a seed fitted to each geometry
+    (a continuation sweep on construction, which also proves the loop's branch over the swing),
+    so the lengths cannot be arrays: each design gets its
+    :class:`~fishtail_kinematics.engine.undulatory_tail.UndulatoryTail`. The drive's assembly
+    margins are the vectorised ones of mechanism 1 (SW is the drive's tail link).
+    """
+
+    has_second_loop: ClassVar[bool] = True
+
+    def __init__(self, designs: Mapping[str, FloatArray]) -> None:
+        """The linkages of ``designs`` (the lengths of :data:`LINKAGE_VARIABLES`)."""
+        self.batch = OscillatoryBatch(
+            designs["ring_radius_m"], designs["crank_link_m"], designs["rocker_link_m"],
+            designs["swing_arm_m"], designs["pivot_offset_m"],
+        )  # fmt: skip
+        self.size = self.batch.size
+        self.lengths = {
+            name: np.broadcast_to(np.asarray(designs[name], dtype=float), (self.size,))
+            for name in LINKAGE_VARIABLES[UNDULATORY]
+        }
+        self.loop_conditions_m = second_loop_conditions(self.lengths)
+        #: Each design's tail, None where the engine refused it, and the engine's reason.
+        self.tails: list[UndulatoryTail | None] = []
+        self.refusals: list[str | None] = []
+        for index in range(self.size):
+            try:
+                geometry = UndulatoryGeometry(
+                    **{name: float(values[index]) for name, values in self.lengths.items()}
+                )
+                tail = UndulatoryTail(geometry)
+                tail.solve(_revolution(CHECK_SAMPLES), 1.0)
+                self.tails.append(tail)
+                self.refusals.append(None)
+            except ENGINE_REFUSALS as error:
+                self.tails.append(None)
+                self.refusals.append(f"{type(error).__name__}: {error}")
+
+    @property
+    def assembles(self) -> npt.NDArray[np.bool_]:
+        """Whether the engine built each linkage (both loops over the whole stroke)."""
+        return np.array([tail is not None for tail in self.tails], dtype=bool)
+
+    def drive(self, carrier: CarrierMotion) -> TailDrive:
+        """Every linkage turned by its column of ``carrier``; NaN for one that does not assemble."""
+        drives: list[TailDrive] = [
+            _NoPose() if tail is None
+            else _ClosedOrNaN(EngineTailDrive(tail, column_carrier(carrier, index)))
+            for index, tail in enumerate(self.tails)
+        ]  # fmt: skip
+        return _Remembered(PerFishDrive(drives))
+
+    def stroke(self, samples: int, hull_length_m: float = math.inf) -> Stroke:
+        """The stroke's figures from ``samples`` carrier angles over a revolution.
+
+        The transmission angle is the smaller of the drive's (at R) and the second loop's (at
+        V); the hull's room counts the ring gear, the drive's joint R and S over their whole
+        travel, and the second loop's joints U, A, V, W against the width while they lie within
+        ``hull_length_m`` behind O (beyond it they are the tail, in the water, as the fin is).
+        """
+        angles = _revolution(samples)
+        rows = [None if tail is None else _stroke_columns(tail, angles) for tail in self.tails]
+        # Every design keeps its column (NaN where there is no stroke), so that a design's
+        # figures are the same bits whatever else is in its batch (as mechanism 1's).
+        blank = dict.fromkeys(_SOLVED_FIELDS, np.full(samples, np.nan))
+        columns = {
+            name: np.stack([(row or blank)[name] for row in rows], axis=1)
+            for name in _SOLVED_FIELDS
+        }
+        with np.errstate(invalid="ignore"):
+            figures = _stroke_figures(columns, self.lengths, hull_length_m)
+        conditions = self.loop_conditions_m.min(axis=0)
+        # A failed condition is its own margin; else the engine's stroke says, where it built the
+        # tail; where it refused the loop over the swing no distance is known (NaN: unmet).
+        figures["second_loop_m"] = np.where(
+            conditions < 0.0, conditions, np.minimum(conditions, figures["second_loop_m"])
+        )
+        inner, outer = self.batch.assembly_margins_m
+        return Stroke(inner, outer, **figures)
+
+
+_STATE_FIELDS = ("theta1", "theta2", "theta3", "theta4", "theta5", "pin_u_distance",
+                 "slider_a_distance", "tip_y")  # fmt: skip
+_JOINTS = ("joint_r", "pin_u", "slider_a", "joint_v", "joint_w")
+#: What a solved stroke gives of each design: state fields and the joints' x and y.
+_SOLVED_FIELDS = (*_STATE_FIELDS, *(f"{joint}_{axis}" for joint in _JOINTS for axis in "xy"))
+
+
+def _stroke_columns(tail: UndulatoryTail, angles: FloatArray) -> dict[str, FloatArray] | None:
+    """One design's solved stroke: the angles and the joints of the engine's link_points.
+
+    None where the loop does not close at one of ``angles`` (next to a toggle pose).
+    """
+    try:
+        state = tail.solve(angles, 1.0)
+    except SolverError:
+        return None
+    points = tail.link_points(state)
+    columns = {name: np.asarray(getattr(state, name), dtype=float) for name in _STATE_FIELDS}
+    for joint in _JOINTS:
+        xy = np.asarray(getattr(points, joint), dtype=float)
+        columns[f"{joint}_x"], columns[f"{joint}_y"] = xy[..., 0], xy[..., 1]
+    return columns
+
+
+def _stroke_figures(
+    c: Mapping[str, FloatArray], lengths: Mapping[str, FloatArray], hull_length_m: float
+) -> dict[str, FloatArray]:
+    """Mechanism 2's stroke figures from the stacked strokes (samples, designs)."""
+    drive = drive_transmission_sine(c["theta1"], c["theta2"]).min(axis=0)
+    loop = loop_transmission_sine(
+        c["theta4"], c["theta5"], c["pin_u_distance"], lengths["slotted_link_m"]
+    ).min(axis=0)
+    reach = np.maximum(lengths["ring_radius_m"], np.abs(c["joint_r_y"]).max(axis=0))
+    for joint in ("pin_u", "slider_a", "joint_v", "joint_w"):
+        inside = c[f"{joint}_x"] <= hull_length_m
+        reach = np.maximum(reach, np.where(inside, np.abs(c[f"{joint}_y"]), 0.0).max(axis=0))
+    length = np.maximum(lengths["pivot_offset_m"], c["joint_r_x"].max(axis=0))
+    length = np.maximum(length, c["slider_a_x"].max(axis=0))
+    pin = c["pin_u_distance"]
+    slot = np.minimum(pin, lengths["slotted_link_m"] - pin).min(axis=0)
+    theta3 = c["theta3"]
+    return {
+        "second_loop_m": np.minimum(slot, c["slider_a_distance"].min(axis=0)),
+        "transmission_angle_rad": np.arcsin(np.minimum(np.minimum(drive, loop), 1.0)),
+        "half_width_m": reach,
+        "length_behind_o_m": length,
+        "time_share_imbalance": np.abs(positive_share(theta3) - 0.5),
+        "mean_angle_rad": np.abs(theta3.mean(axis=0)),
+        "tip_excursion_m": np.ptp(c["tip_y"], axis=0),
+    }
+
+
+#: The linkages of each mechanism's designs.
+LINKAGE_TYPES: dict[str, Callable[[Mapping[str, FloatArray]], Linkages]] = {
+    OSCILLATORY: OscillatoryLinkages,
+    UNDULATORY: UndulatoryLinkages,
+}

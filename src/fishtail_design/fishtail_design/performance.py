@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_design.linkages import OscillatoryLinkages
+from fishtail_design.linkages import Linkages
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_plant.fish.figures import held_tail, steady_surge_speed
 from fishtail_plant.fish.fish import FishParameters, FloatArray
@@ -62,7 +62,7 @@ def _times(samples: int, speed_rad_s: FloatArray) -> FloatArray:
 
 
 def performance(
-    linkages: OscillatoryLinkages,
+    linkages: Linkages,
     fish: FishParameters,
     motor: MotorConstants,
     carrier_speed_rad_s: FloatArray,
@@ -124,7 +124,7 @@ def _profile_motion(depth: float, phase_rad: float, speed_rad_s: FloatArray) -> 
 
 
 def quasi_steady_turning(
-    linkages: OscillatoryLinkages,
+    linkages: Linkages,
     fish: FishParameters,
     carrier_speed_rad_s: FloatArray,
     swim_speed_m_s: FloatArray,
