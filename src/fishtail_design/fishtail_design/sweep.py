@@ -11,7 +11,7 @@ chunk) or a Parquet file (a row group per chunk), chosen by the file's suffix. A
 chunks are in memory, whatever the number of designs: the one being written and the next, being
 scored, or two being scored. The columns: every variable by name, the objectives, the
 constraints' margins, ``feasible`` and the search tier's figures, named as in ``front.csv``.
-Usage: docs/design-sweep.md.
+Usage: docs/design.md ("Sweeps").
 
 >>> from fishtail_design.variables import DesignSpace
 >>> space = DesignSpace("oscillatory", {"ring_radius_m": (0.05, 0.1), "crank_link_m": 0.1,

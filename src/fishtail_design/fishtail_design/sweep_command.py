@@ -4,7 +4,7 @@
 spread over the problem's free variables (a Latin hypercube, seeded; or ``--method grid`` with
 ``--points-per-variable K``) and writes them, chunk by chunk as they are scored, to a CSV or
 Parquet file for the user's own analysis. Exit status: 0 written, 1 a refused input (one line),
-2 a usage error. Usage and columns: docs/design-sweep.md.
+2 a usage error. Usage and columns: docs/design.md ("Sweeps").
 """
 
 from __future__ import annotations
