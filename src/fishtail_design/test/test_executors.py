@@ -228,19 +228,23 @@ def test_an_unreachable_scheduler_is_refused_in_one_line(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     pytest.importorskip("distributed")
-    monkeypatch.setattr(executors, "CONNECT_TIMEOUT_S", 0.3)
-    # Bound but not listening: refused. Listening but never accepting: a silent scheduler
-    # (distributed.Client alone would wait for its handshake for ever).
+    # Bound but not listening: refused (given time for the refusal to come back on a loaded
+    # machine). Listening but never accepting: a silent scheduler (distributed.Client alone
+    # would wait for its handshake for ever).
     with socket.socket() as refusing, socket.socket() as silent:
         refusing.bind(("127.0.0.1", 0))
         silent.bind(("127.0.0.1", 0))
         silent.listen()
-        for sock, reason in ((refusing, ": [Errno 111] Connection refused"), (silent, "")):
+        cases = ((refusing, 5.0, ": [Errno 111] Connection refused"), (silent, 0.3, ""))
+        for sock, timeout_s, reason in cases:
+            monkeypatch.setattr(executors, "CONNECT_TIMEOUT_S", timeout_s)
             address = f"tcp://127.0.0.1:{sock.getsockname()[1]}"
             # The deadline catches a hang; how fast the refusal comes is the machine's load's.
             with pytest.raises(ExecutorError) as raised:
                 within(10.0, "refusing", executor_from_arguments, parse("--scheduler", address))
-            expected = f"the Dask scheduler at {address} does not answer within 0.3 s{reason}"
+            expected = (
+                f"the Dask scheduler at {address} does not answer within {timeout_s:g} s{reason}"
+            )
             assert str(raised.value) == expected
 
 
