@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import copy
 import math
-from typing import NamedTuple, cast
+from typing import NamedTuple, TypeAlias, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -108,6 +108,7 @@ class OscillatoryTail(Tail):
 
     def _set_constants(self) -> None:
         mounting = getattr(self, "tail_mounting_rad", self.theta2_mid)
+        self._cos_mounting, self._sin_mounting = math.cos(mounting), math.sin(mounting)
         #: The numbers of the array path (:func:`solve_drive_arrays`).
         self.constants = DriveConstants(
             self._R, self._PR, self._RS, self._ST, self._OS, self._psi, self.theta2_mid,
@@ -196,31 +197,17 @@ class OscillatoryTail(Tail):
 
     def _solve_scalar(self, phi: float, phi_dot: float) -> OscillatoryState:
         carrier = phi + self._psi
-        op = self._R * math.cos(carrier)
-        op_dot = -self._R * phi_dot * math.sin(carrier)
-        distance = math.hypot(op, self._OS)
-        k = (op * op + self._k_constant) / (2.0 * self._RS * distance)
-        theta2 = math.atan2(self._OS, op) + math.asin(k)
-        sin2 = math.sin(theta2)
-        cos2 = math.cos(theta2)
-        theta1 = math.atan2(op - self._RS * sin2, self._OS + self._RS * cos2)
-        sin1 = math.sin(theta1)
-        cos1 = math.cos(theta1)
-        # sin(theta1 + theta2) vanishes only when PR and RS are collinear, which assembly excludes.
-        denominator = op_dot / (sin1 * cos2 + cos1 * sin2)
-        theta2_dot = denominator * sin1 / self._RS
-        theta1_dot = denominator * sin2 / self._PR
-        theta3 = theta2 - self.theta2_mid
-        fin_angle = theta3 if self.theta2_mid == self.tail_mounting_rad else (
-            theta2 - self.tail_mounting_rad
+        (
+            op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, tip_x, tip_y, tip_x_dot,
+            tip_y_dot, fin_angle, _, _,
+        ) = drive_pose(
+            math.cos(carrier), math.sin(carrier), phi_dot, self._R, self._PR, self._RS, self._ST,
+            self._OS, self.theta2_mid, self.tail_mounting_rad, self._cos_mounting,
+            self._sin_mounting,
         )  # fmt: skip
-        sin_fin = math.sin(fin_angle)
-        cos_fin = math.cos(fin_angle)
         return OscillatoryState(
             phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
-            self._OS + self._ST * cos_fin, self._ST * sin_fin,
-            -self._ST * sin_fin * theta2_dot, self._ST * cos_fin * theta2_dot,
-            fin_angle, theta2_dot,
+            tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
         )  # fmt: skip
 
     def link_points(self, state: LinkageState) -> OscillatoryPoints:
@@ -337,3 +324,75 @@ def solve_drive_arrays(
         tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
     )  # fmt: skip
     return state, cos_fin, sin_fin
+
+
+#: What :func:`drive_pose` returns, in order (theta3_dot and fin_angle_dot are theta2_dot; the
+#: fin angle is the tail link's from the body axis, theta2 minus its mounting).
+DRIVE_POSE_FIELDS = (
+    "slider_position", "slider_velocity", "theta1", "theta1_dot", "theta2", "theta2_dot", "theta3",
+    "tip_x", "tip_y", "tip_x_dot", "tip_y_dot", "fin_angle", "cos_fin", "sin_fin",
+)  # fmt: skip
+#: :func:`drive_pose`'s floats, named by :data:`DRIVE_POSE_FIELDS`.
+DrivePose: TypeAlias = tuple[
+    float, float, float, float, float, float, float, float, float, float, float, float, float,
+    float,
+]  # fmt: skip
+
+
+def drive_pose(
+    cos_carrier: float,
+    sin_carrier: float,
+    phi_dot: float,
+    ring_radius_m: float,
+    crank_link_m: float,
+    rocker_link_m: float,
+    tail_link_m: float,
+    pivot_offset_m: float,
+    theta2_mid: float,
+    tail_mounting_rad: float,
+    cos_mounting: float,
+    sin_mounting: float,
+) -> DrivePose:
+    """Mechanism 1's pose and rates at one carrier angle, from its cosine and sine (phi + psi).
+
+    The scalar formula of the engine, written once: :class:`OscillatoryTail`'s float path calls
+    it, and compiled code (numba) calls it as it stands: plain arithmetic and ``math``, the same
+    operations in the same order as :func:`solve_drive_arrays`, so that the paths agree to
+    rounding. It takes the carrier angle's cosine and sine, not the angle, so that a caller
+    stepping a known angle by a small one can use the angle-sum identities; the mounting's are
+    the linkage's constants. Only cos/sin of the carrier, two square roots, atan2 twice and asin
+    once: every other sine and cosine follows from angle-sum identities, and compiled callers
+    that use neither angle skip the inverse functions. Not checked: a linkage that does not
+    assemble gives NaN (raises on Python floats, where ``math`` refuses). A plain tuple, in the
+    order of :data:`DRIVE_POSE_FIELDS`: the float path runs per message, where building a named
+    tuple would cost a tenth of the solve.
+    """
+    os_, rs, pr = pivot_offset_m, rocker_link_m, crank_link_m
+    op = cos_carrier * ring_radius_m
+    op_dot = sin_carrier * phi_dot * -ring_radius_m
+    # alpha = atan2(OS, OP), beta = asin K, theta2 = alpha + beta.
+    op_squared = op * op
+    distance = math.sqrt(op_squared + os_**2)
+    k = (op_squared + (rs**2 + os_**2 - pr**2)) / distance * (0.5 / rs)
+    cos_alpha = op / distance
+    sin_alpha = os_ / distance
+    theta2 = math.atan2(os_, op) + math.asin(k)
+    cos_beta = math.sqrt((1.0 - k) * (1.0 + k))
+    sin2 = sin_alpha * cos_beta + cos_alpha * k
+    cos2 = cos_alpha * cos_beta - sin_alpha * k
+    # Joint R relative to P, scaled by 1/PR: (cos theta1, -sin theta1).
+    cos1 = cos2 * (rs / pr) + os_ / pr
+    sin1 = sin2 * (-rs / pr) + op * (1.0 / pr)
+    theta1 = math.atan2(sin1, cos1)
+    # sin(theta1 + theta2) vanishes only when PR and RS are collinear, which assembly excludes.
+    rate = op_dot / (sin1 * cos2 + cos1 * sin2)
+    theta2_dot = rate * sin1 * (1.0 / rs)
+    theta1_dot = rate * sin2 * (1.0 / pr)
+    sin_fin = sin2 * cos_mounting - cos2 * sin_mounting
+    cos_fin = cos2 * cos_mounting + sin2 * sin_mounting
+    tip_y = sin_fin * tail_link_m
+    return (
+        op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta2 - theta2_mid,
+        cos_fin * tail_link_m + os_, tip_y, -(tip_y * theta2_dot),
+        cos_fin * theta2_dot * tail_link_m, theta2 - tail_mounting_rad, cos_fin, sin_fin,
+    )  # fmt: skip
