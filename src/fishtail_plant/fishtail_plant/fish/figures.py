@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fishtail_plant.errors import BeatAlignmentError, NoSteadySpeedError
+from fishtail_plant.fish import formulas
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.integrator import Trajectory
 from fishtail_plant.fish.model import (
@@ -36,6 +37,7 @@ from fishtail_plant.fish.model import (
     SwimModel,
     X,
     Y,
+    fin_direction,
     fin_drag,
     fin_recoil,
 )
@@ -166,7 +168,7 @@ def tail_power(force: GeneralisedForce, tail: TailSample) -> FloatArray:
     The tip's velocity relative to the body is (-Tx_dot, Ty_dot) in the body frame (the tail
     frame's x points backward).
     """
-    power: FloatArray = force.x * tail.tip_x_dot - force.y * tail.tip_y_dot
+    power: FloatArray = formulas.tip_power(force.x, force.y, tail.tip_x_dot, tail.tip_y_dot)
     return power
 
 
@@ -176,11 +178,10 @@ def fin_drag_tail_power(plate: FinDrag, tail: TailSample) -> FloatArray:
     The plate's resultant acts at T, which moves at (-Tx_dot, Ty_dot), and its moment about T
     on a plate turning at -th_dot in the body frame. Held at rest it is ∫ k |w|³ ds >= 0.
     """
-    power: FloatArray = (
-        plate.force.x * tail.tip_x_dot
-        - plate.force.y * tail.tip_y_dot
-        + plate.moment_about_tip * tail.fin_rate
-    )
+    power: FloatArray = formulas.fin_drag_power(
+        plate.force.x, plate.force.y, plate.moment_about_tip, tail.tip_x_dot, tail.tip_y_dot,
+        tail.fin_rate,
+    )  # fmt: skip
     return power
 
 
@@ -205,10 +206,10 @@ def recoil_tail_power(
         pull = recoil.added_mass_kg * along
         force_x = force_x - pull * recoil.direction[0]
         force_y = force_y - pull * recoil.direction[1]
-    half_chord = 0.5 * np.asarray(fish.fin_chord_m)
-    mid_x_dot = -tail.tip_x_dot - half_chord * np.sin(tail.fin_angle) * tail.fin_rate
-    mid_y_dot = tail.tip_y_dot - half_chord * np.cos(tail.fin_angle) * tail.fin_rate
-    power: FloatArray = -(force_x * mid_x_dot + force_y * mid_y_dot)
+    power: FloatArray = formulas.recoil_power(
+        np.asarray(fish.fin_chord_m), *fin_direction(tail), tail.tip_x_dot, tail.tip_y_dot,
+        tail.fin_rate, force_x, force_y,
+    )  # fmt: skip
     return power
 
 

@@ -2,11 +2,13 @@
 
 Plain arithmetic on the arguments (no branches on values, no containers), so that numpy
 evaluates them on a batch of fish (:class:`~fishtail_plant.fish.model.SwimModel`) and numba
-compiles them as they stand into the integrator's loop (:mod:`~fishtail_plant.fish.fused`).
-Frames, symbols and signs: docs/swimming-dynamics.md.
+compiles them as they stand into the integrator's loop (:mod:`~fishtail_plant.fish.fused`) and
+the cycle kernel (:mod:`~fishtail_plant.fish.cycle_kernel`). The fin's angle th enters as its
+cosine and sine, which the caller computes once for every formula (or, from the engine, gets
+from angle-sum identities without a call). Frames, symbols and signs: docs/swimming-dynamics.md.
 
 >>> force_x, force_y, moment, tangential, normal, tip_x, tip_y = tip_force(
-...     1.0, 0.0, 0.2, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0)
+...     1.0, 0.0, 0.2, 0.0, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0, 0.0)
 >>> [float(value) + 0.0 for value in (force_x, force_y, moment)]  # fin moving left: ½ m w² ahead
 [0.125, 0.0, 0.0]
 """
@@ -29,7 +31,8 @@ def tip_force(
     tip_y: Value,
     tip_x_dot: Value,
     tip_y_dot: Value,
-    fin_angle: Value,
+    cos_fin: Value,
+    sin_fin: Value,
     u: Value,
     v: Value,
     r: Value,
@@ -41,7 +44,6 @@ def tip_force(
     """
     body_tip_x = -origin_offset - tip_x
     body_tip_y = tip_y
-    cos_fin, sin_fin = np.cos(fin_angle), np.sin(fin_angle)
     velocity_x = u - r * body_tip_y - tip_x_dot
     velocity_y = v + r * body_tip_x + tip_y_dot
     tangential = velocity_x * cos_fin - velocity_y * sin_fin
@@ -91,7 +93,8 @@ def fin_drag(
     tip_y: Value,
     tip_x_dot: Value,
     tip_y_dot: Value,
-    fin_angle: Value,
+    cos_fin: Value,
+    sin_fin: Value,
     fin_rate: Value,
     u: Value,
     v: Value,
@@ -104,7 +107,6 @@ def fin_drag(
     piecewise polynomials, split where w changes sign. Returns the force (x, y), its moment
     about C and its moment about T. A chord or a factor of 0 gives zeros.
     """
-    cos_fin, sin_fin = np.cos(fin_angle), np.sin(fin_angle)
     body_tip_x = -origin_offset - tip_x
     body_tip_y = tip_y
     velocity_x = u - r * body_tip_y - tip_x_dot
@@ -144,7 +146,8 @@ def fin_recoil(
     tip_y: Value,
     tip_x_dot: Value,
     tip_y_dot: Value,
-    fin_angle: Value,
+    cos_fin: Value,
+    sin_fin: Value,
     fin_rate: Value,
     tip_x_ddot: Value,
     tip_y_ddot: Value,
@@ -160,7 +163,6 @@ def fin_recoil(
     added mass m c and the rest (x, y, moment). A chord of 0 gives zeros.
     """
     half_chord = 0.5 * chord
-    cos_fin, sin_fin = np.cos(fin_angle), np.sin(fin_angle)
     mid_x = -origin_offset - tip_x + half_chord * cos_fin
     mid_y = tip_y - half_chord * sin_fin
     mid_x_dot = -tip_x_dot - half_chord * sin_fin * fin_rate
@@ -190,6 +192,50 @@ def fin_recoil(
         -mass * (normal_rate_rest * cos_fin - turning * sin_fin),
         -mass * (normal_rate_rest * direction_z + turning * tangent_z),
     )  # fmt: skip
+
+
+def tip_power(force_x: Value, force_y: Value, tip_x_dot: Value, tip_y_dot: Value) -> Value:
+    """Rate at which the tail works against a force at the tip: -F . (-Tx_dot, Ty_dot).
+
+    The tip's velocity relative to the body is (-Tx_dot, Ty_dot) in the body frame (the tail
+    frame's x points backward).
+    """
+    return force_x * tip_x_dot - force_y * tip_y_dot
+
+
+def fin_drag_power(
+    force_x: Value,
+    force_y: Value,
+    moment_about_tip: Value,
+    tip_x_dot: Value,
+    tip_y_dot: Value,
+    fin_rate: Value,
+) -> Value:
+    """Rate at which the tail works against the plate's drag (resultant at T, moment about T).
+
+    T moves in the body at (-Tx_dot, Ty_dot) and the plate turns at -th_dot in the body frame.
+    """
+    return force_x * tip_x_dot - force_y * tip_y_dot + moment_about_tip * fin_rate
+
+
+def recoil_power(
+    chord: Value,
+    cos_fin: Value,
+    sin_fin: Value,
+    tip_x_dot: Value,
+    tip_y_dot: Value,
+    fin_rate: Value,
+    force_x: Value,
+    force_y: Value,
+) -> Value:
+    """Rate at which the tail works against a force at mid-chord M (the recoil).
+
+    M moves in the body at (-Tx_dot, Ty_dot) - (c/2) th_dot (sin th, cos th).
+    """
+    half_chord = 0.5 * chord
+    mid_x_dot = -tip_x_dot - half_chord * sin_fin * fin_rate
+    mid_y_dot = tip_y_dot - half_chord * cos_fin * fin_rate
+    return -(force_x * mid_x_dot + force_y * mid_y_dot)
 
 
 def coupling(

@@ -14,9 +14,12 @@ the simulator node and ``fishtail-swim`` use: ``make setup`` runs it last
 
 from __future__ import annotations
 
+import hashlib
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 from typing import Any, NamedTuple, TypeAlias
 
 import numpy as np
@@ -86,6 +89,25 @@ def _identity(function: Callable[..., Any]) -> Callable[..., Any]:
     return function
 
 
+def key_cache_to_sources(dispatcher: Any, *modules: ModuleType) -> None:
+    """Key numba's disk cache of ``dispatcher`` to the source of ``modules`` too.
+
+    numba checks a cached function against its own file's size and time only, so code that
+    compiles functions of other files (formulas.py into the loop) would load stale machine code
+    after those files changed. The index's stamp gets a hash of their sources: a change to any
+    of them makes the cache stale, and the next call compiles. Nothing without numba, or with a
+    numba whose cache internals differ (then as numba does it).
+    """
+    cache_file: Any = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    stamp = getattr(cache_file, "_source_stamp", None)
+    if stamp is None:
+        return
+    digest = hashlib.sha256()
+    for module in modules:
+        digest.update(Path(str(module.__file__)).read_bytes())
+    cache_file._source_stamp = (stamp, digest.hexdigest())
+
+
 # Module-level functions of module-level functions: what numba can cache on disk.
 _jit: Compiler = numba.njit(cache=True, nogil=True) if AVAILABLE else _identity
 _tip_force = _jit(formulas.tip_force)
@@ -102,17 +124,19 @@ _pose_rates = _jit(formulas.pose_rates)
 def _rates(p: Any, s: Any, y: Any, hold: bool, out: Any) -> None:
     # p: a row of parameter_table, s: a row of tail_samples, y: the state; out: its rates.
     u, v, r = y[3], y[4], y[5]
+    cos_fin, sin_fin = np.cos(s[4]), np.sin(s[4])
     force_x, force_y, moment, _, _, _, _ = _tip_force(
-        p[3], p[5], s[0], s[1], s[2], s[3], s[4], u, v, r
+        p[3], p[5], s[0], s[1], s[2], s[3], cos_fin, sin_fin, u, v, r
     )
     hull_x, hull_y, hull_z = _hull_force(p[6], p[7], p[8], p[9], p[10], p[11], p[12], u, v, r)
     plate_x, plate_y, plate_z, _ = _fin_drag(
-        p[13], p[4], p[5], s[0], s[1], s[2], s[3], s[4], s[5], u, v, r
+        p[13], p[4], p[5], s[0], s[1], s[2], s[3], cos_fin, sin_fin, s[5], u, v, r
     )
     coupling_x, coupling_y, coupling_z = _coupling(p[0], p[1], u, v, r)
     direction_x, direction_y, direction_z, added_mass, rest_x, rest_y, rest_z = _fin_recoil(
-        p[3], p[4], p[5], s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7], s[8], u, v, r
-    )
+        p[3], p[4], p[5], s[0], s[1], s[2], s[3], cos_fin, sin_fin, s[5], s[6], s[7], s[8],
+        u, v, r,
+    )  # fmt: skip
     # The sums in the numpy model's order; a chord or C_n of 0 adds exact zeros.
     total_x = coupling_x + force_x + hull_x + plate_x + rest_x
     total_y = coupling_y + force_y + hull_y + plate_y + rest_y
@@ -190,6 +214,7 @@ def rk4_block(
 
 #: The compiled loop's numba dispatcher (the plain function without numba), for its cache.
 _LOOP: Any = _rk4_steps
+key_cache_to_sources(_LOOP, formulas)
 
 
 def loop_signatures() -> dict[str, tuple[Any, ...]]:

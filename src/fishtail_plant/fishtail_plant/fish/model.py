@@ -49,6 +49,11 @@ class TrailingEdgeFlow(NamedTuple):
     tip_body_y: FloatArray
 
 
+def fin_direction(tail: TailSample) -> tuple[FloatArray, FloatArray]:
+    """The fin angle's cosine and sine: how the formulas take it."""
+    return np.cos(tail.fin_angle), np.sin(tail.fin_angle)
+
+
 def trailing_edge_force(
     fish: FishParameters, tail: TailSample, u: FloatArray, v: FloatArray, r: FloatArray
 ) -> TrailingEdgeFlow:
@@ -58,7 +63,7 @@ def trailing_edge_force(
     """
     force_x, force_y, moment, tangential, normal, tip_x, tip_y = formulas.tip_force(
         fish.fin_added_mass_per_length_kg_m, fish.tail_origin_offset_m,
-        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, tail.fin_angle, u, v, r,
+        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, *fin_direction(tail), u, v, r,
     )  # fmt: skip
     return TrailingEdgeFlow(
         GeneralisedForce(force_x, force_y, moment), tangential, normal, tip_x, tip_y
@@ -94,8 +99,8 @@ def fin_drag(
     """-½ rho C_n d |w| w n per unit chord, integrated over the plate from T to T + c t."""
     force_x, force_y, moment, moment_about_tip = formulas.fin_drag(
         fish.fin_drag_factor_kg_m2, fish.fin_chord_m, fish.tail_origin_offset_m,
-        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, tail.fin_angle, tail.fin_rate,
-        u, v, r,
+        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, *fin_direction(tail),
+        tail.fin_rate, u, v, r,
     )  # fmt: skip
     return FinDrag(GeneralisedForce(force_x, force_y, moment), moment_about_tip)
 
@@ -122,8 +127,9 @@ def fin_recoil(
     """-m c d/dt(w_c n) (inertial) at mid-chord M = T + (c/2) t, for a plate of chord c."""
     direction_x, direction_y, direction_z, mass, rest_x, rest_y, rest_z = formulas.fin_recoil(
         fish.fin_added_mass_per_length_kg_m, fish.fin_chord_m, fish.tail_origin_offset_m,
-        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, tail.fin_angle, tail.fin_rate,
-        acceleration.tip_x_ddot, acceleration.tip_y_ddot, acceleration.fin_acceleration, u, v, r,
+        tail.tip_x, tail.tip_y, tail.tip_x_dot, tail.tip_y_dot, *fin_direction(tail),
+        tail.fin_rate, acceleration.tip_x_ddot, acceleration.tip_y_ddot,
+        acceleration.fin_acceleration, u, v, r,
     )  # fmt: skip
     return Recoil(
         (direction_x, direction_y, direction_z),

@@ -81,7 +81,7 @@ def test_the_force_opposes_the_plates_motion_and_its_power_is_the_dissipation():
     # Power on the plate moving through the water: F . v_T + M_T (r - theta_dot).
     flow = formulas.tip_force(
         1.0, PLATE.tail_origin_offset_m, sample.tip_x, sample.tip_y, sample.tip_x_dot,
-        sample.tip_y_dot, sample.fin_angle, u, v, r,
+        sample.tip_y_dot, np.cos(sample.fin_angle), np.sin(sample.fin_angle), u, v, r,
     )  # fmt: skip
     tangential, normal = flow[3], flow[4]
     angle = sample.fin_angle
