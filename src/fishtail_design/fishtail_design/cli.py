@@ -1,7 +1,9 @@
 """``fishtail-design``: synthesise the tail drive for a fish and a motor, or sweep designs.
 
 ``fishtail-design PROBLEM.yaml`` runs the search, verifies its front and writes ``front.csv``,
-``front.png``, ``report.md`` and the picked designs' files under ``--output-dir``;
+``front.png``, ``report.md`` and the picked designs' files under ``--output-dir`` (for
+``mechanism: both``, a search of each mechanism, its checkpoints in ``<mechanism>/``, the fronts
+ranked together);
 ``fishtail-design sweep PROBLEM.yaml`` evaluates a grid or a Latin hypercube of designs for the
 user's own analysis. Every bad input ends in one line. Usage: docs/design.md.
 """
@@ -28,10 +30,10 @@ from fishtail_design.executors import (
     executor_from_arguments,
 )
 from fishtail_design.optimiser import GenerationReport, SearchResult, optimise
-from fishtail_design.outcome import PICKS, outcome, verify_reference
+from fishtail_design.outcome import PICKS, Outcome, merge_outcomes, outcome, verify_reference
 from fishtail_design.output import write_front, write_pick
 from fishtail_design.plots import draw_front
-from fishtail_design.problem import Problem, read_problem
+from fishtail_design.problem import Problem, read_problems
 from fishtail_design.report import write_report
 from fishtail_design.verification import Verified, verify_rows
 
@@ -122,23 +124,35 @@ def _verify(problem: Problem, result: SearchResult, executor: Executor) -> Verif
     return evaluate_in_batches(executor, function, rows, max(1, math.ceil(count / 8)), progress)
 
 
+def _designed(
+    problem: Problem, arguments: argparse.Namespace, executor: Executor, place: Path
+) -> Outcome:
+    """One mechanism's search (its checkpoints in ``place``), verified front and reference."""
+    print(f"{PROGRAM}: {problem.path}: {problem.mechanism}, {len(problem.space.names)} "
+          f"variables, evaluating on {executor.description}", file=sys.stderr)  # fmt: skip
+    result = optimise(problem, executor, arguments.batch_size, place / CHECKPOINT,
+                      arguments.resume, _Progress(problem))  # fmt: skip
+    verified = _verify(problem, result, executor)
+    return outcome(problem, result.rows, verified, result.evaluated, result.generations,
+                   verify_reference(problem))  # fmt: skip
+
+
 def run(arguments: argparse.Namespace) -> int:
     """Search, verify and write; the exit status."""
-    problem = _with_overrides(read_problem(arguments.problem), arguments)
+    problems = [_with_overrides(problem, arguments)
+                for problem in read_problems(arguments.problem)]  # fmt: skip
     output = arguments.output_dir
     if output.exists() and not output.is_dir():
         raise DesignError(f"--output-dir {output}: not a directory")
     output.mkdir(parents=True, exist_ok=True)
     picks = arguments.pick or ["fastest", "efficient"]
     with executor_from_arguments(arguments) as executor:
-        print(f"{PROGRAM}: {problem.path}: {problem.mechanism}, {len(problem.space.names)} "
-              f"variables, evaluating on {executor.description}", file=sys.stderr)  # fmt: skip
-        result = optimise(problem, executor, arguments.batch_size, output / CHECKPOINT,
-                          arguments.resume, _Progress(problem))  # fmt: skip
-        verified = _verify(problem, result, executor)
-    reference = verify_reference(problem)
-    final = outcome(problem, result.rows, verified, result.evaluated, result.generations,
-                    reference)  # fmt: skip
+        parts = []
+        for problem in problems:
+            place = output if len(problems) == 1 else output / problem.mechanism
+            place.mkdir(parents=True, exist_ok=True)
+            parts.append(_designed(problem, arguments, executor, place))
+    final = parts[0] if len(parts) == 1 else merge_outcomes(parts)
     write_front(final, output / "front.csv")
     draw_front(final, output / "front.png")
     chosen: list[tuple[str, int]] = []

@@ -2,14 +2,17 @@
 
 :func:`outcome` puts the search's front, its verified figures and the reference design (the
 problem's own, e.g. the report's linkage with the motor's default ratio) side by side, ranks the
-front on the verified figures and says which constraint binds each design. The writers
-(:mod:`.output`, :mod:`.report`, :mod:`.plots`) read nothing else.
+front on the verified figures and says which constraint binds each design;
+:func:`merge_outcomes` joins the outcomes of a search of each mechanism (``mechanism: both``)
+into one, its fronts ranked together. The writers (:mod:`.output`, :mod:`.report`,
+:mod:`.plots`) read nothing else.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -40,10 +43,11 @@ PICKS = {
 class Designs:
     """Designs with everything known of them, one element (row) per design."""
 
-    values: dict[str, FloatArray]  # each variable by name
+    values: dict[str, FloatArray]  # each variable by name (NaN: not one of its mechanism's)
     scores: Scores
     verified: Verified
     binding: tuple[str, ...]  # the constraint closest to binding, per design
+    mechanisms: tuple[str, ...]  # each design's mechanism
 
     @property
     def count(self) -> int:
@@ -62,6 +66,7 @@ class Designs:
             Scores(*(field[rows] for field in self.scores)),
             Verified(*(np.asarray(field)[rows] for field in self.verified)),
             tuple(self.binding[row] for row in rows.tolist()),
+            tuple(self.mechanisms[row] for row in rows.tolist()),
         )
 
 
@@ -72,9 +77,22 @@ class Outcome:
     problem: Problem
     constraints: tuple[Constraint, ...]
     front: Designs
-    reference: Designs
+    reference: Designs  # the reference design of each mechanism
     evaluated: int
     generations: int
+    #: The problem of each mechanism searched (``mechanism: both``: two); () is (problem,).
+    problems: tuple[Problem, ...] = ()
+
+    def problem_of(self, mechanism: str) -> Problem:
+        """The problem of the designs of ``mechanism``."""
+        return next(p for p in self.problems or (self.problem,) if p.mechanism == mechanism)
+
+    def variable_names(self) -> tuple[str, ...]:
+        """Every variable of every mechanism's designs, each once: the lengths, then the rest."""
+        problems = self.problems or (self.problem,)
+        lengths = dict.fromkeys(name for p in problems for name in p.space.linkage_names)
+        rest = self.problem.space.variable_names()[len(self.problem.space.linkage_names) :]
+        return (*lengths, *rest)
 
     def pick(self, choice: str) -> int:
         """The index in the front of a pick: ``fastest``, ``efficient``, ``turning`` or a rank.
@@ -136,8 +154,9 @@ def reference_values(problem: Problem) -> dict[str, FloatArray]:
 
 def _designs(problem: Problem, values: dict[str, FloatArray], verified: Verified) -> Designs:
     scores, table = score_designs(problem, values)
-    names = tuple(binding(table, index) for index in range(scores.objectives.shape[0]))
-    return Designs(values, scores, verified, names)
+    count = scores.objectives.shape[0]
+    names = tuple(binding(table, index) for index in range(count))
+    return Designs(values, scores, verified, names, (problem.mechanism,) * count)
 
 
 def outcome(
@@ -158,10 +177,78 @@ def outcome(
     if front is None:
         empty = Designs(values, Scores(*(np.empty((0, field.shape[1])) for field in
                                          reference.scores)),
-                        Verified(*(np.empty(0) for _ in Verified._fields)), ())  # fmt: skip
+                        Verified(*(np.empty(0) for _ in Verified._fields)), (), ())  # fmt: skip
         return Outcome(problem, constraints, empty, reference, evaluated, generations)
     order = verified_order(problem, verified, verified_feasible(problem, verified))
     return Outcome(problem, constraints, front.take(order), reference, evaluated, generations)
+
+
+def merge_outcomes(outcomes: Sequence[Outcome]) -> Outcome:
+    """One outcome of the outcomes of a search of each mechanism, the fronts ranked together.
+
+    The designs keep their mechanism; a variable or a constraint that a mechanism does not have
+    is NaN in its designs' rows (mechanism 1 has no ``second_loop``, no ``swing_arm_m``). The
+    objectives, limits and settings are the problems' shared ones.
+    """
+    first = outcomes[0]
+    problems = tuple(p for outcome in outcomes for p in outcome.problems or (outcome.problem,))
+    constraints: dict[str, Constraint] = {}
+    for outcome in outcomes:
+        constraints = _ordered_union(constraints, {c.name: c for c in outcome.constraints})
+    merged = dataclasses.replace(first, problems=problems, constraints=tuple(constraints.values()))
+    names = merged.variable_names()
+
+    def joined(part: str) -> Designs:
+        pieces = [_widened(getattr(outcome, part), outcome.constraints, names, constraints)
+                  for outcome in outcomes]  # fmt: skip
+        return Designs(
+            {name: np.concatenate([piece.values[name] for piece in pieces]) for name in names},
+            Scores(*(np.concatenate([getattr(piece.scores, field) for piece in pieces])
+                     for field in Scores._fields)),  # fmt: skip
+            Verified(*(np.concatenate([np.asarray(getattr(piece.verified, field), dtype=float)
+                                       for piece in pieces]) for field in Verified._fields)),
+            tuple(name for piece in pieces for name in piece.binding),
+            tuple(mechanism for piece in pieces for mechanism in piece.mechanisms),
+        )  # fmt: skip
+
+    front = joined("front")
+    order = verified_order(first.problem, front.verified,
+                           verified_feasible(first.problem, front.verified))  # fmt: skip
+    return dataclasses.replace(
+        merged, front=front.take(order), reference=joined("reference"),
+        evaluated=sum(outcome.evaluated for outcome in outcomes),
+    )  # fmt: skip
+
+
+def _ordered_union(
+    known: dict[str, Constraint], more: dict[str, Constraint]
+) -> dict[str, Constraint]:
+    """``known`` and the constraints of ``more`` it lacks, each after its predecessor there."""
+    names = list(known)
+    previous: str | None = None
+    for name in more:
+        if name not in names:
+            names.insert(names.index(previous) + 1 if previous else 0, name)
+        previous = name
+    return {name: known.get(name) or more[name] for name in names}
+
+
+def _widened(
+    designs: Designs,
+    own: tuple[Constraint, ...],
+    names: tuple[str, ...],
+    constraints: dict[str, Constraint],
+) -> Designs:
+    """``designs`` with every variable of ``names`` and a margin column per constraint (NaN)."""
+    count = designs.count
+    values = {name: designs.values.get(name, np.full(count, np.nan)) for name in names}
+    columns = {constraint.name: index for index, constraint in enumerate(own)}
+    margins = np.full((count, len(constraints)), np.nan)
+    for index, name in enumerate(constraints):
+        if name in columns:
+            margins[:, index] = designs.scores.margins[:, columns[name]]
+    return dataclasses.replace(designs, values=values,
+                               scores=designs.scores._replace(margins=margins))  # fmt: skip
 
 
 def verify_reference(problem: Problem) -> Verified:
@@ -170,4 +257,3 @@ def verify_reference(problem: Problem) -> Verified:
     scores, _ = score_designs(problem, values)
     start = scores.figures[:, FIGURES.index("carrier_speed_rad_s")]
     return verify_designs(problem, values, start)
-

@@ -28,10 +28,16 @@ from fishtail_plant.motor.motor_file import write_motor_file
 
 
 def front_columns(outcome: Outcome, designs: Designs) -> list[tuple[str, list[object]]]:
-    """``front.csv``'s columns: rank, variables, objectives, margins, search, verified figures."""
+    """``front.csv``'s columns: rank, mechanism, variables, objectives, margins, figures.
+
+    The search's and the verified figures; a variable or a margin that a design's mechanism
+    does not have is NaN in its row.
+    """
     problem = outcome.problem
-    columns: list[tuple[str, list[object]]] = [("rank", list(range(1, designs.count + 1)))]
-    for name in problem.space.variable_names():
+    columns: list[tuple[str, list[object]]] = [
+        ("rank", list(range(1, designs.count + 1))), ("mechanism", list(designs.mechanisms)),
+    ]  # fmt: skip
+    for name in outcome.variable_names():
         columns.append((name, designs.values[name].tolist()))
     for index, objective in enumerate(problem.objectives):
         columns.append((objective_column(objective), designs.scores.objectives[:, index].tolist()))
@@ -59,7 +65,7 @@ def write_front(outcome: Outcome, path: Path) -> None:
 
 def write_pick(outcome: Outcome, index: int, directory: Path) -> list[Path]:
     """The kinematics, fish and motor files of front design ``index`` in ``directory``."""
-    problem = outcome.problem
+    problem = outcome.problem_of(outcome.front.mechanisms[index])
     directory.mkdir(parents=True, exist_ok=True)
     values = outcome.front.values
     reference = load_parameter_file(problem.reference_path)

@@ -2,7 +2,8 @@
 
 Every pair of objectives gets a panel (one for two objectives, up to six for four): each front
 design at its cycle-average figures and, joined to them, at its verified ones; the reference
-design (the report's) marked. All of the synthesis' plotting is here.
+design (the report's) marked; with a search of each mechanism, each mechanism's designs and
+reference have their own marker. All of the synthesis' plotting is here.
 """
 
 from __future__ import annotations
@@ -18,6 +19,9 @@ import matplotlib.pyplot as plt  # noqa: E402  (the back end is chosen first)
 import numpy as np  # noqa: E402
 
 from fishtail_design.outcome import Outcome  # noqa: E402
+
+#: Each mechanism's markers: front designs, the reference at its search and verified figures.
+_MARKERS = {"oscillatory": ("o", "*", "X"), "undulatory": ("s", "P", "D")}
 
 
 def _axis_label(outcome: Outcome, index: int) -> str:
@@ -41,17 +45,27 @@ def draw_front(outcome: Outcome, path: Path) -> None:
             axis.plot([search[index, first], verified[index, first]],
                       [search[index, second], verified[index, second]],
                       color="0.75", linewidth=0.8, zorder=1)  # fmt: skip
-        axis.scatter(search[:, first], search[:, second], s=18, color="tab:blue",
-                     label="front, cycle-average (search)", zorder=2)  # fmt: skip
-        axis.scatter(verified[:, first], verified[:, second], s=18, color="tab:orange",
-                     label="front, time-stepped (verified)", zorder=3)  # fmt: skip
         reference_search = reference.scores.objectives
-        reference_verified = [objective.value(reference.verified)
-                              for objective in objectives]  # fmt: skip
-        axis.scatter(reference_search[:, first], reference_search[:, second], marker="*", s=160,
-                     color="tab:red", edgecolor="black", label="reference, search", zorder=4)
-        axis.scatter(reference_verified[first], reference_verified[second], marker="X", s=110,
-                     color="tab:red", edgecolor="black", label="reference, verified", zorder=4)
+        reference_verified = np.stack([objective.value(reference.verified)
+                                       for objective in objectives], axis=1)  # fmt: skip
+        several = len(reference.mechanisms) > 1
+        for mechanism in reference.mechanisms:
+            own, searched, checked = _MARKERS[mechanism]
+            name = f" ({mechanism})" if several else ""
+            mine = np.array([m == mechanism for m in front.mechanisms], dtype=bool)
+            axis.scatter(search[mine, first], search[mine, second], s=18, color="tab:blue",
+                         marker=own, label=f"front{name}, cycle-average (search)",
+                         zorder=2)  # fmt: skip
+            axis.scatter(verified[mine, first], verified[mine, second], s=18,
+                         color="tab:orange", marker=own,
+                         label=f"front{name}, time-stepped (verified)", zorder=3)  # fmt: skip
+            at = reference.mechanisms.index(mechanism)
+            axis.scatter(reference_search[at, first], reference_search[at, second],
+                         marker=searched, s=160, color="tab:red", edgecolor="black",
+                         label=f"reference{name}, search", zorder=4)  # fmt: skip
+            axis.scatter(reference_verified[at, first], reference_verified[at, second],
+                         marker=checked, s=110, color="tab:red", edgecolor="black",
+                         label=f"reference{name}, verified", zorder=4)  # fmt: skip
         axis.set_xlabel(_axis_label(outcome, first))
         axis.set_ylabel(_axis_label(outcome, second))
         axis.grid(True, alpha=0.3)
@@ -60,8 +74,9 @@ def draw_front(outcome: Outcome, path: Path) -> None:
     axes.flat[0].legend(fontsize=8, loc="best")
     figure.suptitle(
         f"{outcome.problem.path.name}: {front.count} feasible designs on the front "
-        f"({outcome.evaluated} evaluated, {outcome.generations} generations); "
-        f"reference: {outcome.problem.reference_path.name}", fontsize=10,
+        f"({outcome.evaluated} evaluated, {outcome.generations} generations)\n"
+        "reference: " + ", ".join(outcome.problem_of(m).reference_path.name
+                                  for m in reference.mechanisms), fontsize=10,
     )  # fmt: skip
     figure.tight_layout()
     figure.savefig(path, dpi=110)

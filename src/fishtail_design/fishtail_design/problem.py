@@ -1,7 +1,10 @@
 """A synthesis problem from its file: the fish, the motor, the mechanism, bounds, limits, goals.
 
 The file is YAML; paths in it are relative to it; every key is checked and a bad file is
-refused in one line that names the file and the key. The format, key by key, and an example:
+refused in one line that names the file and the key. ``mechanism: both`` asks for a search of
+each mechanism, their fronts ranked together: the file then gives ``variables`` (and, if it
+names them, the ``reference`` files) per mechanism, and :func:`read_problems` returns one
+problem for each. The format, key by key, and an example:
 docs/design.md ("The problem file"); config/design/*.yaml are worked problems.
 """
 
@@ -45,6 +48,8 @@ _CONSTRAINT_KEYS = {
     "beat_frequency_hz", "strouhal_number", "symmetry",
 }  # fmt: skip
 _SEARCH_KEYS = {"population", "generations", "seed", "samples_per_beat"}
+#: The mechanism setting that asks for a search of each mechanism, merged.
+BOTH = "both"
 #: Whether the catalogue's ratios or any ratio in the gearbox's range; the fastest carrier.
 CATALOGUE, CONTINUOUS, FASTEST = "catalogue", "continuous", "fastest"
 
@@ -82,12 +87,29 @@ class Problem:
 
 
 def read_problem(path: Path) -> Problem:
-    """The problem of the file at ``path``.
+    """The problem of the file at ``path``, a file of one mechanism.
 
     Raises:
         ProblemFileError: naming the file and the key, for a file that cannot be read, an
-            unknown or missing key, a value of the wrong kind or out of range, or a fish or
-            motor file that is refused.
+            unknown or missing key, a value of the wrong kind or out of range, a fish or
+            motor file that is refused, or ``mechanism: both``.
+    """
+    problems = read_problems(path)
+    if len(problems) > 1:
+        raise ProblemFileError(
+            f"{path}: mechanism: {BOTH} asks for a search of each mechanism (fishtail-design "
+            "runs them); this takes a file of one mechanism"
+        )
+    return problems[0]
+
+
+def read_problems(path: Path) -> tuple[Problem, ...]:
+    """The problems of the file at ``path``: its mechanism's, or one per mechanism for ``both``.
+
+    The problems of ``both`` share everything but their variables and reference files.
+
+    Raises:
+        ProblemFileError: as :func:`read_problem`, naming the mechanism's section for ``both``.
     """
     try:
         return _read(path)
@@ -95,7 +117,7 @@ def read_problem(path: Path) -> Problem:
         raise ProblemFileError(f"{path}: {error}") from None
 
 
-def _read(path: Path) -> Problem:
+def _read(path: Path) -> tuple[Problem, ...]:
     try:
         document = yaml.safe_load(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError) as error:
@@ -106,8 +128,11 @@ def _read(path: Path) -> Problem:
     _known(values, _KEYS, "")
     base = path.parent
     mechanism = str(values.get("mechanism", MECHANISMS[0]))
-    if mechanism not in MECHANISMS:
-        raise ProblemFileError(f"mechanism: {mechanism!r} is not one of {', '.join(MECHANISMS)}")
+    if mechanism not in (*MECHANISMS, BOTH):
+        raise ProblemFileError(
+            f"mechanism: {mechanism!r} is not one of {', '.join((*MECHANISMS, BOTH))}"
+        )
+    mechanisms = MECHANISMS if mechanism == BOTH else (mechanism,)
     fish_path = _file(values, "fish", base, DEFAULT_FISH)
     try:
         fish = FishParameters.from_values(read_fish_values(fish_path))
@@ -118,16 +143,32 @@ def _read(path: Path) -> Problem:
         motor = read_motor_file(motor_path)
     except (PlantError, ValueError) as error:
         raise ProblemFileError(f"motor: {error}") from None
-    space = _space(mechanism, _mapping(values.get("variables"), "variables"), motor)
-    return Problem(
+    variables = _mapping(values.get("variables"), "variables")
+    references = values.get("reference")
+    if mechanism == BOTH:
+        _known(variables, set(MECHANISMS), "variables.")
+        if references is not None:
+            _known(_mapping(references, "reference"), set(MECHANISMS), "reference.")
+    spaces, reference_paths = [], []
+    for name in mechanisms:
+        section = f"variables.{name}." if mechanism == BOTH else "variables."
+        own = _mapping(variables.get(name), section[:-1]) if mechanism == BOTH else variables
+        spaces.append(_space(name, own, motor, section))
+        reference = references.get(name) if isinstance(references, Mapping) else references
+        key = f"reference.{name}" if isinstance(references, Mapping) else "reference"
+        reference_paths.append(_reference(reference, key, base, name))
+    first = Problem(
         path=path, fish_path=fish_path, fish=fish, motor_path=motor_path, motor=motor,
-        reference_path=_file(values, "reference", base, mechanism),
-        space=space,
+        reference_path=reference_paths[0], space=spaces[0],
         limits=_limits(_mapping(values.get("constraints", {}), "constraints"), fish, motor),
         objectives=objectives_named(_names(values.get("objectives"))),
         turning_depth=_number(values.get("turning_depth", 0.5), "turning_depth", 0.0, 0.9),
         search=_search(_mapping(values.get("search", {}), "search")),
     )  # fmt: skip
+    return tuple(
+        dataclasses.replace(first, space=space, reference_path=reference)
+        for space, reference in zip(spaces, reference_paths, strict=True)
+    )
 
 
 def _mapping(value: object, key: str) -> Mapping[str, Any]:
@@ -165,6 +206,11 @@ def _file(values: Mapping[str, Any], key: str, base: Path, default: str) -> Path
     return path
 
 
+def _reference(value: object, key: str, base: Path, mechanism: str) -> Path:
+    """A reference file: the one named, or the mechanism's config/<mechanism>.yaml."""
+    return _file({} if value is None else {key: value}, key, base, mechanism)
+
+
 def _names(value: object) -> list[str]:
     if not isinstance(value, list) or not all(isinstance(item, str) for item in value):
         raise ProblemFileError(f"objectives must be a list of names, got {value!r:.60}")
@@ -182,18 +228,20 @@ def _setting(value: object, key: str) -> Setting:
     return _number(value, key)
 
 
-def _space(mechanism: str, variables: Mapping[str, Any], motor: MotorSpec) -> DesignSpace:
-    """The design space of the ``variables`` section for ``motor``'s gearbox."""
+def _space(
+    mechanism: str, variables: Mapping[str, Any], motor: MotorSpec, section: str = "variables."
+) -> DesignSpace:
+    """The design space of the ``variables`` section (named ``section``) for ``motor``'s gearbox."""
     names = set(LINKAGE_VARIABLES[mechanism]) | {GEAR_RATIO, CARRIER_SPEED}
-    _known(variables, names, "variables.")
+    _known(variables, names, section)
     settings: dict[str, Setting] = {}
     symmetric = variables.get("rocker_link_m") == "symmetric"
     for name in LINKAGE_VARIABLES[mechanism]:
         if name == "rocker_link_m" and symmetric:
             continue
         if name not in variables:
-            raise ProblemFileError(f"variables.{name}: not set (bounds [low, high] or a value)")
-        settings[name] = _setting(variables[name], f"variables.{name}")
+            raise ProblemFileError(f"{section}{name}: not set (bounds [low, high] or a value)")
+        settings[name] = _setting(variables[name], f"{section}{name}")
     gear = variables.get(GEAR_RATIO, CATALOGUE)
     ratios: tuple[float, ...] = ()
     efficiencies: tuple[float, ...] = ()
@@ -201,22 +249,21 @@ def _space(mechanism: str, variables: Mapping[str, Any], motor: MotorSpec) -> De
     if gear == CATALOGUE:
         ratios = motor.gear_ratios
         if not ratios:
-            raise ProblemFileError(f"variables.{GEAR_RATIO}: the motor's file lists no ratios")
+            raise ProblemFileError(f"{section}{GEAR_RATIO}: the motor's file lists no ratios")
         efficiencies = tuple(motor.efficiency(ratio) for ratio in ratios)
     else:
-        setting = _gear_setting(gear, motor)
+        setting = _gear_setting(gear, motor, f"{section}{GEAR_RATIO}")
         settings[GEAR_RATIO] = setting
         efficiency = motor.efficiency(setting[0] if isinstance(setting, tuple) else setting)
     speed = variables.get(CARRIER_SPEED, FASTEST)
     if speed != FASTEST:
-        settings[CARRIER_SPEED] = _setting(speed, f"variables.{CARRIER_SPEED}")
+        settings[CARRIER_SPEED] = _setting(speed, f"{section}{CARRIER_SPEED}")
     return DesignSpace(mechanism, settings, symmetric, ratios, efficiencies, efficiency,
                        speed == FASTEST)  # fmt: skip
 
 
-def _gear_setting(gear: object, motor: MotorSpec) -> Setting:
+def _gear_setting(gear: object, motor: MotorSpec, key: str) -> Setting:
     """A continuous ratio: the gearbox's range, or bounds or a value within what it offers."""
-    key = f"variables.{GEAR_RATIO}"
     if gear == CONTINUOUS:
         if motor.gear_ratio_range is None:
             raise ProblemFileError(f"{key}: the motor's file gives no continuous range of ratios")

@@ -24,12 +24,16 @@ def _number(value: float, digits: int = 4) -> str:
 def _column(designs: Designs, index: int, outcome: Outcome) -> list[str]:
     """One design's rows of the comparison table."""
     v = designs.verified
-    names = outcome.problem.space.linkage_names
+    mechanism = designs.mechanisms[index]
+    names = outcome.problem_of(mechanism).space.linkage_names
     lengths = ", ".join(f"{SYMBOLS[name]} {1000.0 * designs.values[name][index]:.1f}"
                         for name in names)  # fmt: skip
-    feasible_search = bool(np.all(designs.scores.margins[index] >= 0.0))
+    margins = designs.scores.margins[index]
+    # NaN: a constraint of another mechanism (a merged front's).
+    feasible_search = bool(np.all(margins[~np.isnan(margins)] >= 0.0))
     verified_ok = bool(verified_feasible(outcome.problem, v)[index])
     return [
+        mechanism,
         f"{lengths} mm",
         f"{designs.values[GEAR_RATIO][index]:g}:1",
         f"{_number(designs.figure('carrier_speed_rad_s')[index])} / "
@@ -56,25 +60,27 @@ def _column(designs: Designs, index: int, outcome: Outcome) -> list[str]:
 
 
 ROWS = (
-    "linkage", "gear ratio", "carrier speed [rad/s]", "beat frequency [Hz]", "speed [L/s]",
-    "speed [m/s]", "cost of transport [J/(kg m)]", "RMS current [A]", "peak current [A]",
-    "turning [rad/beat]", "symmetry: time share, mean angle", "smallest transmission angle",
-    "feasible", "binding (smallest margin)",
+    "mechanism", "linkage", "gear ratio", "carrier speed [rad/s]", "beat frequency [Hz]",
+    "speed [L/s]", "speed [m/s]", "cost of transport [J/(kg m)]", "RMS current [A]",
+    "peak current [A]", "turning [rad/beat]", "symmetry: time share, mean angle",
+    "smallest transmission angle", "feasible", "binding (smallest margin)",
 )  # fmt: skip
 
 
 def _gain(outcome: Outcome, index: int) -> str:
     """How the fastest pick compares with the reference, verified."""
     front, reference = outcome.front.verified, outcome.reference.verified
-    speed, reference_speed = front.speed_m_s[index], reference.speed_m_s[0]
+    mechanism = outcome.front.mechanisms[index]
+    own = outcome.reference.mechanisms.index(mechanism)  # the reference of its mechanism
+    speed, reference_speed = front.speed_m_s[index], reference.speed_m_s[own]
     cost = front.cost_of_transport_j_kg_m[index]
-    reference_cost = reference.cost_of_transport_j_kg_m[0]
+    reference_cost = reference.cost_of_transport_j_kg_m[own]
     if not all(math.isfinite(value) and value > 0.0
                for value in (speed, reference_speed, cost, reference_cost)):  # fmt: skip
         return "The reference design has no verified figures to compare with."
     return (
         f"Verified, the fastest feasible design swims **{speed / reference_speed:.2f}×** as fast "
-        f"as the reference ({speed:.3f} against {reference_speed:.3f} m/s) at "
+        f"as the {mechanism} reference ({speed:.3f} against {reference_speed:.3f} m/s) at "
         f"**{cost / reference_cost:.2f}×** its cost of transport ({cost:.3g} against "
         f"{reference_cost:.3g} J/(kg m)), under the same motor."
     )
@@ -84,10 +90,14 @@ def write_report(outcome: Outcome, picks: Sequence[tuple[str, int]], path: Path,
                  directories: dict[str, Path]) -> None:  # fmt: skip
     """``report.md``: the problem, the comparison table, the gain and how to run the picks."""
     problem = outcome.problem
+    mechanisms = outcome.reference.mechanisms
+    searched = (f"{mechanisms[0]} mechanism" if len(mechanisms) == 1 else
+                f"{' and '.join(mechanisms)} mechanisms, a search of each, the fronts ranked "
+                "together")  # fmt: skip
     lines = [
         f"# fishtail-design: {problem.path.name}", "",
         f"Fish `{problem.fish_path}`, motor `{problem.motor_path}` ({problem.motor.name}), "
-        f"{problem.mechanism} mechanism; objectives: "
+        f"{searched}; objectives: "
         + ", ".join(f"{o.label} [{o.unit}]" for o in problem.objectives) + ".",
         f"NSGA-II, population {problem.search.population}, {outcome.generations} generations, "
         f"seed {problem.search.seed}: {outcome.evaluated} designs evaluated, "
@@ -95,10 +105,12 @@ def write_report(outcome: Outcome, picks: Sequence[tuple[str, int]], path: Path,
         "Each cell: search (cycle-average balance, carrier at constant speed) / verified "
         "(motor at full duty against the exact load, free body stepped from rest).", "",
     ]  # fmt: skip
-    header = ["", f"reference ({problem.reference_path.name})", *(name for name, _ in picks)]
+    references = [f"reference ({outcome.problem_of(mechanism).reference_path.name})"
+                  for mechanism in mechanisms]  # fmt: skip
+    header = ["", *references, *(name for name, _ in picks)]
     lines.append("| " + " | ".join(header) + " |")
     lines.append("|" + "---|" * len(header))
-    columns = [_column(outcome.reference, 0, outcome)]
+    columns = [_column(outcome.reference, index, outcome) for index in range(len(mechanisms))]
     columns += [_column(outcome.front, index, outcome) for _, index in picks]
     for row, label in enumerate(ROWS):
         lines.append("| " + " | ".join([label, *(column[row] for column in columns)]) + " |")
@@ -106,11 +118,13 @@ def write_report(outcome: Outcome, picks: Sequence[tuple[str, int]], path: Path,
     fastest = [index for name, index in picks if name == "fastest"]
     if fastest:
         lines += [_gain(outcome, fastest[0]), ""]
-    failing = [constraint.name for constraint, margin in
-               zip(outcome.constraints, outcome.reference.scores.margins[0], strict=True)
-               if margin < 0.0]  # fmt: skip
-    if failing:
-        lines += [f"The reference design does not meet: {', '.join(failing)}.", ""]
+    for index, mechanism in enumerate(mechanisms):
+        failing = [constraint.name for constraint, margin in
+                   zip(outcome.constraints, outcome.reference.scores.margins[index], strict=True)
+                   if margin < 0.0]  # fmt: skip
+        if failing:
+            own = f"{mechanism} " if len(mechanisms) > 1 else ""
+            lines += [f"The {own}reference design does not meet: {', '.join(failing)}.", ""]
     if directories:
         lines += ["Run a pick in the suite:", "", "```"]
         for name, directory in directories.items():
