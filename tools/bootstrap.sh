@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Set up the fishtail workspace from a fresh clone: .venv with the pinned ROS 2 Jazzy wheels, the
 # wheel CMake path fix, tf2_msgs (which the wheels lack) into .venv/interfaces,
-# `colcon build --symlink-install`, and the swimming simulator's numba loop compiled into its cache
-# (python -m fishtail_plant.fish.fused), so that no later run waits for the compiler. Idempotent;
-# a second run with nothing changed takes about a second (stamps keyed on hashes of what each step
-# depends on).
+# `colcon build --symlink-install`, and the swimming simulator's numba loop and the synthesis' cycle
+# kernel compiled into their caches (python -m fishtail_plant.fish.fused), so that no later run
+# waits for the compiler. Idempotent; a second run with nothing changed takes about a second
+# (stamps keyed on hashes of what each step depends on).
 #
 # Usage: tools/bootstrap.sh [--force-build]
 #   --force-build   run colcon build even if the sources' build stamp is current
@@ -225,16 +225,27 @@ fi
 
 # --- 6. the swimming integrator, compiled once ------------------------------------------------
 # The simulator's RK4 loop is compiled by numba (10-20 s on 2 cores) and cached on disk, beside
-# fused.py in src/ (the symlinked build/ path leads there) or under NUMBA_CACHE_DIR. Done here, so
-# that the first `make run` swims at once instead of compiling while the motor turns. numba
-# reloads the cache while fused.py keeps its size and mtime, so the stamp hashes those, the cache
-# location and the cache's index files (a deleted cache is compiled again).
+# fused.py in src/ (the symlinked build/ path leads there) or under NUMBA_CACHE_DIR; the same run
+# compiles the synthesis' cycle kernel (cycle_kernel.py). Done here, so that the first `make run`
+# swims at once instead of compiling while the motor turns. numba reloads the caches while their
+# sources (those files and the formulas they compile) keep their size and mtime, so the stamp
+# hashes those, the cache location and the caches' index files (a deleted cache is compiled
+# again).
 FUSED=src/fishtail_plant/fishtail_plant/fish/fused.py
+COMPILED_SOURCES=(
+  "$FUSED"
+  src/fishtail_plant/fishtail_plant/fish/cycle_kernel.py
+  src/fishtail_plant/fishtail_plant/fish/formulas.py
+  src/fishtail_plant/fishtail_plant/fish/figures.py
+  src/fishtail_plant/fishtail_plant/fish/tail_drive.py
+  src/fishtail_kinematics/fishtail_kinematics/engine/oscillatory_tail.py
+)
 integrator_key() {
   {
     echo "$key ${NUMBA_CACHE_DIR:-}"
-    stat -c '%n %s %Y' "$FUSED"
-    find "${NUMBA_CACHE_DIR:-$(dirname "$FUSED")/__pycache__}" -name 'fused._rk4_steps-*.nbi' \
+    stat -c '%n %s %Y' "${COMPILED_SOURCES[@]}"
+    find "${NUMBA_CACHE_DIR:-$(dirname "$FUSED")/__pycache__}" \
+      \( -name 'fused._rk4_steps-*.nbi' -o -name 'cycle_kernel._held_cycles-*.nbi' \) \
       -exec stat -c '%n %s %Y' {} + 2>/dev/null | LC_ALL=C sort
   } | sha256sum | cut -c1-32
 }

@@ -7,9 +7,11 @@ optional (:data:`AVAILABLE`); without it the integrator uses the numpy model. Co
 and the fallback: docs/swimming-dynamics.md ("Integrator").
 
 Compiling takes seconds (tens on a busy machine); numba caches the result on disk, beside this
-file (or under ``NUMBA_CACHE_DIR``). :func:`compile_loop` compiles, or loads, every specialisation
+file (or under ``NUMBA_CACHE_DIR``), keyed to the source of the formulas as well as this file's
+(:func:`key_cache_to_sources`). :func:`compile_loop` compiles, or loads, every specialisation
 the simulator node and ``fishtail-swim`` use: ``make setup`` runs it last
-(``python -m fishtail_plant.fish.fused``), so that no later run waits for the compiler.
+(``python -m fishtail_plant.fish.fused``, which prepares the synthesis' cycle kernel too), so
+that no later run waits for the compiler.
 """
 
 from __future__ import annotations
@@ -300,7 +302,11 @@ def compile_loop(batches: tuple[str, ...] | None = None) -> LoopPreparation:
 
 
 def main() -> int:
-    """``python -m fishtail_plant.fish.fused``: compile (or load) the loop, and say how long."""
+    """``python -m fishtail_plant.fish.fused``: compile (or load) the loop, and say how long.
+
+    Then the synthesis' cycle kernel (:mod:`~fishtail_plant.fish.cycle_kernel`), the suite's
+    other compiled code, so that ``make setup`` prepares both; its line comes last.
+    """
     if not loop_signatures():
         print("swimming integrator: not compiled (numba is not installed, or NUMBA_DISABLE_JIT)")
         return 0
@@ -312,6 +318,15 @@ def main() -> int:
         f"{verb} the swimming integrator ... took {done.seconds:.1f} s "
         f"({done.compiled} specialisations compiled, {done.loaded} loaded from the cache)"
     )
+    # Imported here: the kernel's module imports this one.
+    from fishtail_plant.fish import cycle_kernel
+
+    verb = "loading" if cycle_kernel.is_cached() else "compiling"
+    print(f"{verb} the cycle kernel (numba) ...", flush=True)
+    kernel = cycle_kernel.compile_kernel()
+    if kernel is not None:
+        how = "compiled" if kernel.compiled else "loaded from the cache"
+        print(f"{verb} the cycle kernel ... took {kernel.seconds:.1f} s ({how})")
     return 0
 
 

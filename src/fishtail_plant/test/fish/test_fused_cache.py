@@ -2,7 +2,8 @@
 
 Each check runs in fresh interpreters with numba's cache in a temporary directory: one runs
 ``python -m fishtail_plant.fish.fused``, the next does what the simulator node and
-``fishtail-swim`` do and counts the loop's compilations (numba's cache misses).
+``fishtail-swim`` do, and what the synthesis' search tier does with the cycle kernel, and counts
+the compilations (numba's cache misses).
 """
 
 from __future__ import annotations
@@ -51,6 +52,14 @@ USES = textwrap.dedent(
         simulate(SwimModel(FishParameters(), drive), 3, 0.01, 20)
         simulate(SwimModel(FishParameters(), drive, hold_sway_yaw=True), 1, 0.01, 20)
     print("compiled", fused.compiled_count())
+    # The synthesis' cycle kernel, as its search tier calls it.
+    from fishtail_kinematics.engine.drive_batch import OscillatoryBatch
+    from fishtail_plant.fish import cycle_kernel
+
+    print("kernel cached before", cycle_kernel.is_cached())
+    batch = OscillatoryBatch(np.array([0.1, 0.05]), 0.1, 0.233926, 0.15, 0.2)
+    assert cycle_kernel.held_cycles(batch, FishParameters(), np.ones(2), 64) is not None
+    print("kernel compiled", sum(cycle_kernel._KERNEL.stats.cache_misses.values()))
     """
 )
 
@@ -76,14 +85,19 @@ def test_after_compile_loop_nothing_compiles(tmp_path):
     assert "took " in first and "(2 specialisations compiled, 0 loaded" in first, first
     uses = run(["-c", USES], cache)
     assert "cached before True True" in uses, uses
-    assert "compiled 0" in uses, uses
+    assert "\ncompiled 0\n" in uses, uses
+    assert "kernel cached before True" in uses, uses
+    assert "kernel compiled 0" in uses, uses
     again = run(["-m", "fishtail_plant.fish.fused"], cache)
     assert again.startswith("loading the swimming integrator"), again
     assert "(0 specialisations compiled, 2 loaded from the cache)" in again, again
+    assert "loading the cycle kernel ... took" in again and "(loaded from the cache)" in again
 
 
 def test_without_compile_loop_the_uses_compile(tmp_path):
     """The check above can fail: on an empty cache the same uses do compile."""
     uses = run(["-c", USES], tmp_path / "empty")
     assert "cached before False False" in uses, uses
-    assert "compiled 0" not in uses, uses
+    assert "\ncompiled 0\n" not in uses, uses
+    assert "kernel cached before False" in uses, uses
+    assert "kernel compiled 1" in uses, uses
