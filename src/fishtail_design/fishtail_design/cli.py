@@ -11,6 +11,7 @@ user's own analysis. Every bad input ends in one line. Usage: docs/design.md.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import math
 import sys
@@ -29,18 +30,33 @@ from fishtail_design.executors import (
     evaluate_in_batches,
     executor_from_arguments,
 )
-from fishtail_design.optimiser import GenerationReport, SearchResult, optimise
-from fishtail_design.outcome import PICKS, Outcome, merge_outcomes, outcome, verify_reference
+from fishtail_design.optimiser import (
+    GenerationReport,
+    SearchResult,
+    optimise,
+    refinement_space,
+    search,
+)
+from fishtail_design.outcome import (
+    PICKS,
+    Outcome,
+    merge_outcomes,
+    outcome,
+    reference_values,
+    verify_reference,
+)
 from fishtail_design.output import write_front, write_pick
 from fishtail_design.plots import draw_front
 from fishtail_design.problem import Problem, read_problems
 from fishtail_design.report import write_report
-from fishtail_design.verification import Verified, verify_rows
+from fishtail_design.verification import Verified, verified_rows, verify_rows
+from fishtail_plant.fish.fish import FloatArray
 
 PROGRAM = "fishtail-design"
 #: Where the results go unless --output-dir says otherwise (git-ignored).
 DEFAULT_OUTPUT = Path("runs/design")
 CHECKPOINT = "checkpoint.pickle"
+REFINE_CHECKPOINT = "checkpoint-refinement.pickle"
 
 
 def _pick(text: str) -> str:
@@ -71,6 +87,9 @@ def run_parser() -> OneLineErrorParser:
     parser.add_argument("--population", type=int, metavar="N",
                         help="override the problem's search.population")
     parser.add_argument("--seed", type=int, help="override the problem's search.seed")
+    parser.add_argument("--refine-generations", type=int, metavar="N",
+                        help="override the problem's search.refine_generations (0: no "
+                        "refinement on the verified figures)")
     add_executor_arguments(parser)
     return parser
 
@@ -78,8 +97,9 @@ def run_parser() -> OneLineErrorParser:
 class _Progress:
     """One line per generation on a terminal (rewritten in place), else one per generation."""
 
-    def __init__(self, problem: Problem) -> None:
+    def __init__(self, problem: Problem, stage: str = "generation") -> None:
         self.problem = problem
+        self.stage = stage
         self.tty = sys.stderr.isatty()
 
     def __call__(self, report: GenerationReport) -> None:
@@ -88,7 +108,7 @@ class _Progress:
             for objective, value in zip(self.problem.objectives, report.best, strict=True)
         )
         line = (
-            f"generation {report.generation}/{report.generations}: {report.evaluated} designs, "
+            f"{self.stage} {report.generation}/{report.generations}: {report.evaluated} designs, "
             f"{report.feasible} feasible in the last; best {best}; {report.elapsed_s:.1f} s, "
             f"ETA {report.eta_s:.0f} s"
         )
@@ -97,14 +117,42 @@ class _Progress:
 
 
 def _with_overrides(problem: Problem, arguments: argparse.Namespace) -> Problem:
-    import dataclasses
-
-    changes = {name: getattr(arguments, name) for name in ("generations", "population", "seed")
+    names = ("generations", "population", "seed", "refine_generations")
+    changes = {name: getattr(arguments, name) for name in names
                if getattr(arguments, name) is not None}  # fmt: skip
+    smallest = {"population": 4, "seed": 0, "refine_generations": 0, "generations": 1}
     for name, value in changes.items():
-        if value < (4 if name == "population" else 0 if name == "seed" else 1):
-            raise DesignError(f"--{name} {value} is too small")
+        if value < smallest[name]:
+            flag = "--" + name.replace("_", "-")
+            raise DesignError(f"{flag} {value}: at least {smallest[name]}")
     return dataclasses.replace(problem, search=dataclasses.replace(problem.search, **changes))
+
+
+def _seeds(problem: Problem, result: SearchResult) -> FloatArray:
+    """The refinement's first population: the search's front, spread, and the reference."""
+    count = problem.search.refine_population
+    rows = result.rows
+    if rows.shape[0] >= count:
+        rows = rows[np.linspace(0, rows.shape[0] - 1, count - 1).round().astype(int)]
+    try:
+        values = {name: float(value[0]) for name, value in reference_values(problem).items()}
+        reference = problem.space.encode(values)[None, :]
+    except (DesignError, KeyError):  # a reference with another ratio, or a speed variable
+        return rows
+    return np.vstack([reference, rows])
+
+
+def _refine(
+    problem: Problem, result: SearchResult, executor: Executor, output: Path, resume: bool
+) -> SearchResult:
+    """NSGA-II on the verified figures from the search's front: the designs it overrated drop."""
+    checkpoint = output / REFINE_CHECKPOINT
+    return search(
+        refinement_space(problem), functools.partial(verified_rows, problem), executor,
+        max(1, math.ceil(problem.search.refine_population / 8)), checkpoint,
+        resume and checkpoint.is_file(), _Progress(problem, "refinement"),
+        _seeds(problem, result),
+    )  # fmt: skip
 
 
 def _verify(problem: Problem, result: SearchResult, executor: Executor) -> Verified:
@@ -132,6 +180,8 @@ def _designed(
           f"variables, evaluating on {executor.description}", file=sys.stderr)  # fmt: skip
     result = optimise(problem, executor, arguments.batch_size, place / CHECKPOINT,
                       arguments.resume, _Progress(problem))  # fmt: skip
+    if problem.search.refine_generations > 0 and result.rows.shape[0] > 0:
+        result = _refine(problem, result, executor, place, arguments.resume)
     verified = _verify(problem, result, executor)
     return outcome(problem, result.rows, verified, result.evaluated, result.generations,
                    verify_reference(problem))  # fmt: skip

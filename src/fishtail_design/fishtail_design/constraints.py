@@ -100,9 +100,9 @@ def margins(
             tolerances.mean_angle_warn_rad - stroke.mean_angle_rad,
         # The balance speed, NaN (not met) for a tail whose thrust never beats the drag.
         Constraint("swims", "m/s", 1.0): figures.speed_m_s,
-        # Run as fast as the motor holds it, the two are equal: rounding must not count.
-        Constraint("motor_torque", "N m", 1.0): figures.motor_torque_n_m
-            - figures.peak_load_torque_n_m * (1.0 - _ROUNDING),
+        # Run as fast as the motor sustains, the two are equal: rounding must not count.
+        Constraint("motor_speed", "rad/s", 1.0): figures.sustained_speed_rad_s * (1.0 + _ROUNDING)
+            - figures.carrier_speed_rad_s,
     }  # fmt: skip
     if math.isfinite(continuous):
         result[Constraint("rms_current", "A", continuous)] = continuous - figures.rms_current_a

@@ -71,5 +71,13 @@ def score_designs(
 
 
 def evaluate_rows(problem: Problem, rows: npt.ArrayLike) -> Scores:
-    """The scores of the designs ``rows`` (the optimiser's variables, one design per row)."""
-    return score_designs(problem, problem.space.decode(rows))[0]
+    """The scores of the designs ``rows`` (the optimiser's variables, one design per row).
+
+    A design's scores are the same bits whatever batch it is in. numpy sums a lone column
+    pairwise but columns side by side in order, so a single design is scored as a pair.
+    """
+    table = np.atleast_2d(np.asarray(rows, dtype=float))
+    if table.shape[0] == 1:
+        pair = score_designs(problem, problem.space.decode(np.repeat(table, 2, axis=0)))[0]
+        return Scores(*(field[:1] for field in pair))
+    return score_designs(problem, problem.space.decode(table))[0]

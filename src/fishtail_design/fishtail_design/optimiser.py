@@ -23,6 +23,8 @@ import numpy as np
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.core.evaluator import Evaluator
 from pymoo.core.problem import Problem as PymooProblem
+from pymoo.core.sampling import Sampling
+from pymoo.operators.sampling.rnd import FloatRandomSampling
 from pymoo.problems.static import StaticProblem
 
 from fishtail_design.errors import CheckpointError
@@ -97,6 +99,16 @@ class SearchSpace(NamedTuple):
         )  # fmt: skip
 
 
+def refinement_space(problem: Problem) -> SearchSpace:
+    """The refinement's search space: the same bounds, its own population and generations."""
+    space = SearchSpace.of(problem)
+    search = problem.search
+    return space._replace(
+        population=search.refine_population, generations=search.refine_generations,
+        fingerprint=space.fingerprint + ":refinement",
+    )  # fmt: skip
+
+
 class _Space(PymooProblem):
     """The design space as pymoo sees it: bounds, objective and constraint counts."""
 
@@ -116,6 +128,19 @@ def _for_pymoo(space: SearchSpace, scores: Scores) -> tuple[FloatArray, FloatArr
     objectives = np.where(feasible[:, None] & np.isfinite(objectives), objectives, _WORST)
     violation = np.where(np.isfinite(violation), violation, _WORST)
     return objectives, np.minimum(violation, _WORST)
+
+
+class _Seeded(Sampling):
+    """The given rows first, then random ones up to the population (pymoo's float sampling)."""
+
+    def __init__(self, rows: FloatArray) -> None:
+        super().__init__()
+        self.rows = rows
+
+    def _do(self, problem: Any, n_samples: int, **kwargs: Any) -> FloatArray:
+        given = self.rows[:n_samples]
+        rest = FloatRandomSampling()._do(problem, n_samples - given.shape[0], **kwargs)
+        return np.vstack([given, np.asarray(rest, dtype=float).reshape(-1, given.shape[1])])
 
 
 class _Checkpoint(NamedTuple):
@@ -194,8 +219,12 @@ def search(
     checkpoint: Path | None = None,
     resume: bool = False,
     report: Callable[[GenerationReport], None] | None = None,
+    initial: FloatArray | None = None,
 ) -> SearchResult:
     """NSGA-II over ``space``, ``function`` scoring each batch of rows; the final front.
+
+    ``initial``: rows of the first population (the rest drawn at random), e.g. a cheaper
+    search's front.
 
     Raises:
         CheckpointError: ``resume`` from a checkpoint that is missing or of another problem.
@@ -210,7 +239,10 @@ def search(
         algorithm, evaluated, best, spent = (state.algorithm, state.evaluated, state.best,
                                              state.elapsed_s)  # fmt: skip
     else:
-        algorithm = NSGA2(pop_size=space.population, eliminate_duplicates=True)
+        sampling: Any = FloatRandomSampling()
+        if initial is not None and initial.shape[0]:
+            sampling = _Seeded(np.clip(initial, space.lower, space.upper))
+        algorithm = NSGA2(pop_size=space.population, sampling=sampling, eliminate_duplicates=True)
         algorithm.setup(pymoo_space, termination=("n_gen", space.generations), seed=space.seed)
         evaluated, best, spent = 0, (float("nan"),) * objectives_count, 0.0
     started = time.monotonic() - spent

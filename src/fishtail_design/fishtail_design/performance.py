@@ -4,8 +4,8 @@ The carrier at constant speed Omega; the fish held at its balance speed U (sway 
 :func:`~fishtail_plant.fish.figures.steady_surge_speed`); the carrier's load from the tail's
 power into the water, tau(phi) = P(phi) / Omega (virtual work, exact for the water's forces;
 the links' own inertia is left to the verified tier); the motor quasi-static at Omega
-(:mod:`~fishtail_plant.motor.duty`). "As fast as the motor holds it" is the speed at which the
-required voltage just reaches the supply at the load's peak. Every figure is computed for the
+(:mod:`~fishtail_plant.motor.duty`). "As fast as the motor sustains" is the speed at which the
+required voltage reaches the supply on the mean over a revolution. Every figure is computed for the
 whole population at once. The method and its limits: docs/design.md ("Fidelity").
 """
 
@@ -16,8 +16,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_design.linkages import Linkages
+from fishtail_design.linkages import Linkages, OscillatoryLinkages
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from fishtail_plant.fish.cycle_kernel import HeldCycles, held_cycles
 from fishtail_plant.fish.figures import held_tail, steady_surge_speed
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.steady_turn import strongest_phases
@@ -53,6 +54,10 @@ class Performance(NamedTuple):
     peak_load_torque_n_m: FloatArray
     motor_torque_n_m: FloatArray  # the motor's full-duty torque at the carrier at Omega
     holding_speed_rad_s: FloatArray  # the fastest Omega the motor holds at every angle
+    #: The fastest mean Omega it sustains: the mean required voltage reaches the supply (the
+    #: carrier slows through the load's peaks and the inertia carries it; within a few per cent
+    #: of the full-duty run's mean speed).
+    sustained_speed_rad_s: FloatArray
     turning_rad_per_beat: FloatArray
 
 
@@ -68,37 +73,48 @@ def performance(
     carrier_speed_rad_s: FloatArray,
     samples: int,
     turning_depth: float | None = None,
+    compiled: bool = True,
 ) -> Performance:
     """The figures of every design at its carrier speed (NaN: as fast as the motor holds it).
 
     ``turning_depth``: also the quasi-steady turning at that modulation depth (slower).
+    ``compiled``: mechanism 1 towed by the compiled kernel where numba is there (the same
+    figures to rounding, tens of times faster); False: by numpy.
     """
     count = linkages.size
     unit = np.ones(count)
     # The load at Omega = 1: the balance speed per carrier speed and tau(phi) / Omega².
-    at_unit = linkages.drive(constant_carrier_speed(unit))
-    per_speed = steady_surge_speed(at_unit, fish, 2.0 * math.pi * unit, samples, strict=False)
-    towed = held_tail(at_unit, fish, _times(samples, unit), per_speed)
+    towed = towed_cycles(linkages, fish, unit, samples, compiled)
+    per_speed = towed.speed_m_s
     paid = paid_per_speed_squared(towed.power_w, motor.gearbox_efficiency)
     holding = speed_at_supply(motor, paid.max(axis=0))
-    speed = np.where(np.isnan(carrier_speed_rad_s), holding, carrier_speed_rad_s)
+    sustained = speed_at_supply(motor, paid.mean(axis=0))
+    speed = np.where(np.isnan(carrier_speed_rad_s), sustained, carrier_speed_rad_s)
     if np.all(np.asarray(fish.surge_linear_damping_kg_s) == 0.0):
         # Without a linear drag U ∝ Omega, the push ∝ Omega², the power ∝ Omega³ (no scale but
         # the beat's): the unit pass gives every speed.
         swim_speed = per_speed * speed
-        thrust = towed.push_n.mean(axis=0) * speed**2
+        thrust = towed.push_n * speed**2
         load = towed.power_w
     else:
-        drive = linkages.drive(constant_carrier_speed(speed))
-        swim_speed = steady_surge_speed(drive, fish, 2.0 * math.pi / speed, samples, strict=False)
-        at_speed = held_tail(drive, fish, _times(samples, speed), swim_speed)
-        thrust = at_speed.push_n.mean(axis=0)
+        at_speed = towed_cycles(linkages, fish, speed, samples, compiled)
+        swim_speed = at_speed.speed_m_s
+        thrust = at_speed.push_n
         load = at_speed.power_w / speed**3
     tail_power = load.mean(axis=0) * speed**3
     current, voltage = duty(motor, load, speed)
     electrical = (current * voltage).mean(axis=0)
+    rms, peak = np.sqrt((current**2).mean(axis=0)), np.abs(current).max(axis=0)
+    # Above the holding speed the motor is at full duty and the inertia carries the carrier
+    # through the load's peaks: the armature sees the supply and a nearly steady speed, so its
+    # current is nearly constant, the mean the load asks for (the verified run has the ripple).
+    saturated = speed > holding
+    steady = current.mean(axis=0)
+    electrical = np.where(saturated, np.asarray(motor.supply_voltage_v) * steady, electrical)
+    rms = np.where(saturated, np.abs(steady), rms)
+    peak = np.where(saturated, np.abs(steady), peak)
     frequency = speed / (2.0 * math.pi)
-    excursion = np.ptp(towed.tail.tip_y, axis=0)
+    excursion = towed.tip_excursion_m
     turning = np.full(count, np.nan)
     if turning_depth is not None:
         turning = quasi_steady_turning(linkages, fish, speed, swim_speed, samples, turning_depth)
@@ -107,9 +123,36 @@ def performance(
             speed, frequency, swim_speed, swim_speed / np.asarray(fish.body_length_m),
             frequency * excursion / swim_speed, thrust, tail_power, electrical,
             electrical / (swim_speed * np.asarray(fish.body_mass_kg)),
-            np.sqrt((current**2).mean(axis=0)), np.abs(current).max(axis=0),
-            np.abs(load).max(axis=0) * speed**2, torque_at_carrier(motor, speed), holding, turning,
+            rms, peak,
+            np.abs(load).max(axis=0) * speed**2, torque_at_carrier(motor, speed), holding,
+            sustained, turning,
         )  # fmt: skip
+
+
+def towed_cycles(
+    linkages: Linkages,
+    fish: FishParameters,
+    carrier_speed_rad_s: FloatArray,
+    samples: int,
+    compiled: bool = True,
+) -> HeldCycles:
+    """Every design at its constant carrier speed, towed at its balance speed, over one beat.
+
+    :func:`~fishtail_plant.fish.figures.steady_surge_speed` and
+    :func:`~fishtail_plant.fish.figures.held_tail` at ``samples`` times of the beat; for
+    mechanism 1, where numba is there and ``compiled``, the compiled kernel
+    (:func:`~fishtail_plant.fish.cycle_kernel.held_cycles`), which gives the same to rounding.
+    """
+    if compiled and isinstance(linkages, OscillatoryLinkages):
+        cycles = held_cycles(linkages.batch, fish, carrier_speed_rad_s, samples)
+        if cycles is not None:
+            return cycles
+    drive = linkages.drive(constant_carrier_speed(carrier_speed_rad_s))
+    period = 2.0 * math.pi / carrier_speed_rad_s
+    balance = steady_surge_speed(drive, fish, period, samples, strict=False)
+    towed = held_tail(drive, fish, _times(samples, carrier_speed_rad_s), balance)
+    excursion = np.ptp(np.asarray(towed.tail.tip_y), axis=0)
+    return HeldCycles(balance, towed.push_n.mean(axis=0), towed.power_w, excursion)
 
 
 def _profile_motion(depth: float, phase_rad: float, speed_rad_s: FloatArray) -> CarrierMotion:

@@ -44,10 +44,12 @@ _KEYS = {"fish", "motor", "reference", "mechanism", "variables", "constraints", 
          "turning_depth", "search"}  # fmt: skip
 _CONSTRAINT_KEYS = {
     "hull_width_at_o_m", "length_behind_o_m", "min_transmission_angle_deg",
-    "driver_continuous_current_a", "driver_peak_current_a", "tip_excursion_m",
+    "driver_continuous_current_a", "driver_peak_current_a", "motor_continuous_current_a",
+    "motor_peak_current_a", "tip_excursion_m",
     "beat_frequency_hz", "strouhal_number", "symmetry",
 }  # fmt: skip
-_SEARCH_KEYS = {"population", "generations", "seed", "samples_per_beat"}
+_SEARCH_KEYS = {"population", "generations", "seed", "samples_per_beat", "refine_population",
+                "refine_generations"}  # fmt: skip
 #: The mechanism setting that asks for a search of each mechanism, merged.
 BOTH = "both"
 #: Whether the catalogue's ratios or any ratio in the gearbox's range; the fastest carrier.
@@ -56,12 +58,18 @@ CATALOGUE, CONTINUOUS, FASTEST = "catalogue", "continuous", "fastest"
 
 @dataclasses.dataclass(frozen=True)
 class SearchSettings:
-    """The optimiser's population, generations and seed, and the samples per beat of the search."""
+    """The optimiser's population, generations and seed, and the samples per beat of the search.
+
+    ``refine_population`` and ``refine_generations``: the refinement, a second NSGA-II on the
+    verified figures started from the search's front and the reference design (0: none).
+    """
 
     population: int = 100
     generations: int = 50
     seed: int = 1
     samples_per_beat: int = 128
+    refine_population: int = 20
+    refine_generations: int = 6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -314,8 +322,10 @@ def _limits(values: Mapping[str, Any], fish: FishParameters, motor: MotorSpec) -
             "constraints.min_transmission_angle_deg", 0.0, 90.0,
         ),
         symmetry=tolerances,
-        motor_continuous_current_a=motor.continuous_current_a,
-        motor_peak_current_a=motor.peak_current_a,
+        # The motor file's ratings, unless the builder knows better (a measured thermal limit).
+        motor_continuous_current_a=number("motor_continuous_current_a",
+                                          motor.continuous_current_a),
+        motor_peak_current_a=number("motor_peak_current_a", motor.peak_current_a),
         driver_continuous_current_a=number("driver_continuous_current_a", math.inf),
         driver_peak_current_a=number("driver_peak_current_a", math.inf),
         tip_excursion_m=_band(values.get("tip_excursion_m"), "constraints.tip_excursion_m"),
@@ -331,7 +341,9 @@ def _search(values: Mapping[str, Any]) -> SearchSettings:
     for key in _SEARCH_KEYS:
         value = values.get(key, getattr(defaults, key))
         low, high = {"population": (4, 100_000), "generations": (1, 100_000),
-                     "seed": (0, 2**32 - 1), "samples_per_beat": (16, 4096)}[key]  # fmt: skip
+                     "seed": (0, 2**32 - 1), "samples_per_beat": (16, 4096),
+                     "refine_population": (4, 10_000), "refine_generations": (0, 10_000),
+                     }[key]  # fmt: skip
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise ProblemFileError(f"search.{key} must be an integer in [{low}, {high}]")
         chosen[key] = value

@@ -18,6 +18,7 @@ import numpy.typing as npt
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
 from fishtail_common.parameter_files import load_parameter_file
+from fishtail_design.evaluation import FIGURES, Scores, score_designs
 from fishtail_design.problem import Problem
 from fishtail_design.variables import CARRIER_SPEED, GEAR_RATIO
 from fishtail_kinematics.engine.errors import FishtailKinematicsError
@@ -45,6 +46,7 @@ class Verified(NamedTuple):
     carrier_speed_rad_s: FloatArray  # the full-duty run's mean, or the set speed
     beat_frequency_hz: FloatArray
     sustained: FloatArray  # 1: the motor holds the carrier speed, 0: it does not
+    full_duty_speed_rad_s: FloatArray  # the full-duty run's mean carrier speed (0: it stalls)
     speed_m_s: FloatArray  # the free body's mean over the last beats
     body_lengths_per_s: FloatArray
     turning_radius_m: FloatArray  # of the unsteered free body (straight: large)
@@ -90,7 +92,7 @@ def verify_one(
     turns = run.started and run.stopped_at_rad is None and run.mean_speed_rad_s > 0.0
     if math.isnan(set_speed_rad_s):
         if not turns:
-            return (0.0, 0.0, 0.0, *(math.nan,) * 8)
+            return (0.0, 0.0, 0.0, 0.0, *(math.nan,) * 8)
         speed = run.mean_speed_rad_s
         electrical, rms, peak = run.mean_supply_power_w, run.rms_current_a, run.peak_current_a
         sustained = 1.0
@@ -108,7 +110,8 @@ def verify_one(
     mass = float(np.asarray(fish.body_mass_kg))
     turn = _turning(problem, tail, speed)
     return (
-        speed, 1.0 / period, sustained, swim, swim / float(np.asarray(fish.body_length_m)),
+        speed, 1.0 / period, sustained, run.mean_speed_rad_s if turns else 0.0, swim,
+        swim / float(np.asarray(fish.body_length_m)),
         float(free.turning_radius_m[0]), electrical, electrical / (swim * mass), rms, peak, turn,
     )  # fmt: skip
 
@@ -161,3 +164,33 @@ def verified_order(problem: Problem, verified: Verified, feasible: FloatArray) -
             order.extend(members[np.argsort(objectives[members, 0], kind="stable")].tolist())
     order.extend(index for index in range(objectives.shape[0]) if index not in set(order))
     return np.asarray(order, dtype=int)
+
+
+def verified_rows(problem: Problem, rows: npt.ArrayLike) -> Scores:
+    """The scores of the designs ``rows`` on their verified figures (the refinement's function).
+
+    The stroke's constraints stay the search tier's (they are exact); whether it swims, whether
+    the motor sustains the carrier speed and the currents come from the verified runs.
+    """
+    table = np.atleast_2d(np.asarray(rows, dtype=float))
+    designs = problem.space.decode(table)
+    search, margins = score_designs(problem, designs)
+    start = search.figures[:, FIGURES.index("carrier_speed_rad_s")]
+    verified = verify_designs(problem, designs, start)
+    limits = problem.limits
+    continuous = min(limits.motor_continuous_current_a, limits.driver_continuous_current_a)
+    peak = min(limits.motor_peak_current_a, limits.driver_peak_current_a)
+    replaced = {
+        "swims": verified.speed_m_s,
+        "motor_speed": verified.full_duty_speed_rad_s * (1.0 + 1e-9)
+        - verified.carrier_speed_rad_s,
+        "rms_current": continuous - verified.rms_current_a,
+        "peak_current": peak - verified.peak_current_a,
+    }
+    columns = [
+        np.where(np.isnan(value), -np.inf, value) if (value := replaced.get(constraint.name))
+        is not None else margin
+        for constraint, margin in margins.items()
+    ]  # fmt: skip
+    objectives = np.stack([objective.value(verified) for objective in problem.objectives], axis=1)
+    return Scores(objectives, np.stack(columns, axis=1), search.figures)
