@@ -81,3 +81,26 @@ def test_a_checkpoint_of_another_problem_or_none_is_refused(tmp_path):
     checkpoint.write_bytes(b"not a pickle")
     with pytest.raises(CheckpointError, match="cannot read"):
         search(_space(2), zdt1, InProcessExecutor(), 16, checkpoint, resume=True)
+
+
+@pytest.mark.integration
+def test_the_synthesis_search_on_a_dask_cluster_ends_on_the_in_process_front():
+    pytest.importorskip("distributed")
+    import dataclasses
+
+    from fishtail_common.parameter_files import default_parameter_file
+    from fishtail_design.executors import DaskExecutor
+    from fishtail_design.optimiser import optimise
+    from fishtail_design.problem import read_problem
+
+    problem = read_problem(default_parameter_file("design/report-fish"))
+    settings = dataclasses.replace(problem.search, population=12, generations=3, seed=11,
+                                   samples_per_beat=64)  # fmt: skip
+    problem = dataclasses.replace(problem, search=settings)
+    alone = optimise(problem, InProcessExecutor(), batch_size=5)
+    with DaskExecutor(workers=2) as cluster:
+        spread = optimise(problem, cluster, batch_size=5)
+    assert alone.rows.shape[0] > 0
+    assert np.array_equal(alone.rows, spread.rows)
+    for field, values in zip(alone.scores._fields, alone.scores, strict=True):
+        assert np.array_equal(values, getattr(spread.scores, field), equal_nan=True), field
