@@ -48,7 +48,6 @@ from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from fishtail_bringup.console import GoalRoute, square_route
 from fishtail_bringup.supervisor import Supervisor
 from fishtail_common.interface import (
     DIAGNOSTICS,
@@ -75,6 +74,7 @@ from fishtail_common.testing import (
 )
 from fishtail_msgs.msg import CarrierSpeedProfile, TailState
 from fishtail_pilot.pilot import GOAL_TOLERANCE
+from fishtail_pilot.route import GoalRoute, square_route
 from measure import FISH, GEOMETRY, OUT, ROOT, cpu_seconds
 
 NODES = (*SUITE_NODES, SWIM_NODE, PILOT_NODE)

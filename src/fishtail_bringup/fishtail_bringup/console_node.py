@@ -9,7 +9,6 @@ import math
 import time
 
 from fishtail_bringup.console import (
-    GoalRoute,
     fish_preparing_text,
     fish_text,
     level_name,
@@ -28,6 +27,7 @@ from fishtail_common.interface import (
     TAIL_STATE,
     TAIL_SYMMETRY,
 )
+from fishtail_pilot.route import GoalRoute
 
 #: How often the carrier speed is sent (the driver's watchdog wants it at least every 0.5 s).
 COMMAND_PERIOD_S = 0.1

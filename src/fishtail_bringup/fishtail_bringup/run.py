@@ -21,10 +21,6 @@ import time
 from pathlib import Path
 
 from fishtail_bringup import firmware_board
-from fishtail_bringup.console import (
-    GoalRoute,
-    square_route,
-)
 from fishtail_bringup.console_node import Console
 from fishtail_bringup.speed_commands import (
     COMMAND_PERIOD_S,
@@ -46,6 +42,7 @@ from fishtail_common.parameter_files import default_parameter_file
 from fishtail_common.parameters import ParameterSpec
 from fishtail_driver.parameters import DC_MOTOR_ENCODER, SPECS
 from fishtail_pilot.pilot import GOAL_TOLERANCE
+from fishtail_pilot.route import GoalRoute, square_route
 from fishtail_pilot.steering import PIVOT_STEERING, STEERING
 from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
 
