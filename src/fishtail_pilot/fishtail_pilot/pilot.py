@@ -190,9 +190,6 @@ PEAK_MARGIN = 1e-9
 MAX_CONTROL_STEP_S = 0.2
 #: The lowest carrier speed while a speed is wanted, as a share of the feed-forward's.
 MIN_FEED_FORWARD_SHARE = 0.5
-#: A goal closer than this many tightest turning radii to the turning circle's centre is inside
-#: it: the fish tracks its beat-mean heading with a lag, so the circle it swims is wider.
-GOAL_CIRCLE_MARGIN = 1.3
 #: A goal further than this from the world origin in x or y is refused (m): a fish in a tank or
 #: a pond swims metres, and a goal kilometres off is a mistake (a unit or a garbled message).
 MAX_GOAL_COORDINATE_M = 1000.0
@@ -391,15 +388,20 @@ class Pilot:
         self._heading_reference = self.mean_heading_rad + error
 
     def _inside_turning_circle(self, bearing_error_rad: float) -> bool:
+        # Inside by more than the goal tolerance: the tightest turn passes within the tolerance
+        # of a goal less deep inside. The circle is the steering table's own: the default fish
+        # answers its steering within a beat, and a wider circle sends it straight on past a goal
+        # on its tightest circle, as a square's next corner is, to loop back from metres away.
         assert self.goal is not None
-        radius = GOAL_CIRCLE_MARGIN * self.min_turning_radius_m(bearing_error_rad)
+        radius = self.min_turning_radius_m(bearing_error_rad)
         heading = self.predicted_heading_rad
         if not (math.isfinite(radius) and math.isfinite(heading)):
             return False
         side = math.copysign(1.0, bearing_error_rad)
         centre_x = self.position_m[0] - side * radius * math.sin(heading)
         centre_y = self.position_m[1] + side * radius * math.cos(heading)
-        return math.hypot(self.goal[0] - centre_x, self.goal[1] - centre_y) < radius
+        depth = radius - math.hypot(self.goal[0] - centre_x, self.goal[1] - centre_y)
+        return depth > self.settings.goal_tolerance_m
 
     def _control(self, dt: float) -> PilotCommand:
         settings = self.settings
@@ -438,7 +440,14 @@ class Pilot:
         )
         # The carrier never drops below half the feed-forward while a speed is wanted: a stopped
         # tail cannot steer, and, held off the axis, it is a rudder that turns the gliding fish.
-        floor = min(MIN_FEED_FORWARD_SHARE * slope * wanted, ceiling)
+        floor_speed = wanted
+        if self.mode is Mode.GOAL and math.isfinite(self.mean_speed_m_s):
+            # Nearing a goal the wanted speed falls, but the fish glides on (drag is its one
+            # brake) while it steers hardest: a carrier slowed below the fish's own speed turns
+            # it less per metre and it passes the goal, to circle back. So the floor follows the
+            # fish's speed too.
+            floor_speed = max(wanted, self.mean_speed_m_s)
+        floor = min(MIN_FEED_FORWARD_SHARE * slope * floor_speed, ceiling)
         pushing_up = mean_speed >= ceiling and error > 0.0
         pushing_down = mean_speed <= floor and error < 0.0
         if not (pushing_up or pushing_down):

@@ -4,27 +4,32 @@ The bounds are the behaviour the pilot documents (docs/steering.md): a speed ste
 within 10 % of the command in 4 beats, a step down in 15 (the fish can only glide down: drag is
 its one brake); a positive yaw-rate command turns the fish to the left, at the commanded rate
 once settled; a goal 3 m away, ahead, aside or behind, is reached within 0.2 m in the stated
-time.
+time; the 2 m square is flown round without a loop within 1.3 times its documented time.
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fishtail_pilot.pilot import Pilot, PilotSettings
+from fishtail_pilot.pilot import GOAL_TOLERANCE, Pilot, PilotSettings
+from fishtail_pilot.route import GoalRoute, square_route
 from fishtail_pilot.steering import steering_from_values
 from fishtail_plant.values import fish_from_values, tail_from_values
-from fishtail_testkit.closed_loop import LoopRun, fly
+from fishtail_testkit.closed_loop import LoopRun, fly, follow
 
 #: Each closed-loop flight takes 2-5 s (make check leaves them to make test).
 pytestmark = pytest.mark.slow
 
 SAMPLE_RATE_HZ = 200.0
 MECHANISMS = ("oscillatory", "undulatory")
+#: The closed-loop table whose square row the square's test holds the pilot to.
+STEERING_DOC = Path(__file__).resolve().parents[3] / "docs" / "steering.md"
+SQUARE_SIDE_M = 2.0
 
 
 @functools.cache
@@ -123,3 +128,62 @@ def test_the_pivot_actuator_turns_the_fish_left_for_a_positive_yaw_rate(mechanis
     assert np.all(loop.modulation_depth == 0.0)
     # The actuator moved S forwards (a negative shift turns these tails left).
     assert loop.pivot_shift_m[-1] < 0.0
+
+
+def documented_square_seconds() -> dict[str, float]:
+    """The 2 m square's times in docs/steering.md's closed-loop table, by mechanism."""
+    for line in STEERING_DOC.read_text(encoding="utf-8").splitlines():
+        if line.startswith("| 2 m square"):
+            cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
+            return {
+                mechanism: float(cell.removesuffix(" s"))
+                for mechanism, cell in zip(MECHANISMS, cells[1:3], strict=True)
+            }
+    raise AssertionError(f"no '| 2 m square' row in {STEERING_DOC}")
+
+
+def distance_to_square_m(x_m, y_m, side_m: float):
+    """Each point's distance to the nearest side of the square (0, 0)-(side, side)."""
+    corners = [(0.0, 0.0), (side_m, 0.0), (side_m, side_m), (0.0, side_m), (0.0, 0.0)]
+    nearest = np.full(np.shape(x_m), np.inf)
+    for (ax, ay), (bx, by) in zip(corners[:-1], corners[1:], strict=True):
+        along = np.clip(((x_m - ax) * (bx - ax) + (y_m - ay) * (by - ay)) / side_m**2, 0.0, 1.0)
+        gap = np.hypot(x_m - (ax + along * (bx - ax)), y_m - (ay + along * (by - ay)))
+        nearest = np.minimum(nearest, gap)
+    return nearest
+
+
+def tightest_radius_m(mechanism: str) -> float:
+    """The tightest circle the modulation turns the fish in, either way (the steering table's)."""
+    means = setup(mechanism)[2]
+    return min(
+        abs(means.turning_radius_at(means.input_for(end))) for end in means.yaw_per_beat_range_rad
+    )
+
+
+@pytest.mark.parametrize("mechanism", MECHANISMS)
+def test_the_square_is_flown_round_without_a_loop_in_its_documented_time(mechanism):
+    tolerance = float(GOAL_TOLERANCE.default)
+    route = GoalRoute(square_route(SQUARE_SIDE_M), tolerance)
+    fly_route = follow(route)
+    finished_s: list[float] = []
+
+    def script(time_s, pilot):
+        fly_route(time_s, pilot)
+        if route.finished and not finished_s:
+            finished_s.append(time_s)
+
+    allowed_s = 1.3 * documented_square_seconds()[mechanism]
+    loop = run(mechanism, allowed_s, script)
+    assert finished_s, f"the square not finished in {allowed_s:.1f} s"
+    flown = loop.time_s <= finished_s[0]
+    # Round a square, each corner the short way, the heading turns 4 x 90 degrees in all; a loop
+    # adds a whole turn. Halfway between: a loop-free route with some hunting passes.
+    turned = np.sum(np.abs(np.diff(loop.mean_heading_rad[flown])))
+    assert math.degrees(turned) < 360.0 + 180.0
+    # A corner whose next corner lies inside the tightest circle is passed straight until that
+    # corner is on the circle (at most a radius on), then turned round on it (another radius
+    # out): the fish stays within the circle's diameter, plus the tolerance, of the sides.
+    outside = distance_to_square_m(loop.x_m[flown], loop.y_m[flown], SQUARE_SIDE_M)
+    assert np.max(outside) <= 2.0 * tightest_radius_m(mechanism) + tolerance
+

@@ -9,8 +9,8 @@ sample's odometry goes back to the pilot. The pivot actuator, when the steering 
 ``pivot_speed_m_s`` towards its command, and the follower's tail follows it
 (:meth:`SwimFollower.set_tail`).
 
-The tests fly it for the pilot's settling times, turns and goals, and the pilot's benchmark
-against real time.
+The tests fly it for the pilot's settling times, turns, goals and routes (:func:`follow`), and
+the pilot's benchmark against real time.
 """
 
 from __future__ import annotations
@@ -24,12 +24,31 @@ import numpy as np
 from fishtail_kinematics.engine.carrier_profile import CarrierMotion, CarrierSpeedProfile
 from fishtail_kinematics.engine.mechanisms import Tail
 from fishtail_pilot.pilot import Pilot, PilotCommand
+from fishtail_pilot.route import GoalRoute
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.follower import SwimFollower
 from fishtail_plant.fish.model import PSI, SURGE, YAW_RATE, X, Y
 
 #: Called before each sample with the loop's time (s): set commands, goals, stop the pilot.
 Script = Callable[[float, Pilot], None]
+
+
+def follow(route: GoalRoute) -> Script:
+    """A script that flies ``route`` as fishtail-run's console does.
+
+    The first waypoint goes to the pilot at the start; after each sample the route is updated
+    with the fish's position the pilot last saw, and once the current waypoint is reached the
+    next one is set (the console's route, on the same odometry as the pilot's, and the pilot
+    reach a waypoint on the same sample).
+    """
+
+    def script(time_s: float, pilot: Pilot) -> None:
+        if time_s == 0.0 and route.current is not None:
+            pilot.set_goal(*route.current)
+        elif route.update(pilot.position_m) and route.current is not None:
+            pilot.set_goal(*route.current)
+
+    return script
 
 
 class LoopRun(NamedTuple):
