@@ -148,6 +148,42 @@ def test_goals_are_flown_in_the_odometry_frame_and_refused_in_another(start_node
     ros.spin_until(lambda: any(p.mean_speed > 0.0 for p in profiles), TIMEOUT_S, "the goal flown")
 
 
+@pytest.mark.parametrize("odometry_first", [True, False])
+def test_a_goal_pivot_steering_cannot_turn_to_is_refused_with_the_reason(
+    start_node, ros, odometry_first
+):
+    """Pivot steering turns only left: a goal 18 degrees right is refused with a WARN saying so.
+
+    Sent before the first odometry, it is judged on it and given up with the same WARN.
+    """
+    profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
+    diagnostics = ros.record_diagnostics()
+    start_pilot(start_node, ros, cmd_timeout_sec=0.0, steering="pivot")
+    goals = ros.node.create_publisher(PoseStamped, GOAL_POSE.name, publisher_qos(GOAL_POSE))
+    goal = PoseStamped()
+    goal.pose.position.x, goal.pose.position.y = 3.0, -1.0
+    ros.wait_for_subscribers(GOAL_POSE.name, 1, TIMEOUT_S)  # so that the goal is not lost
+    if odometry_first:
+        FakeFish(ros, 0.0)  # at rest at the origin, heading along x
+        ros.spin_for(0.5)  # the pilot knows where the fish is
+        goals.publish(goal)
+    else:
+        goals.publish(goal)
+        ros.spin_for(0.5)
+        FakeFish(ros, 0.0)
+
+    def refused():
+        return any(
+            level == Level.WARN
+            and "refused: goal (3.000, -1.000) m is out of reach" in status.message
+            and "turns only left" in status.message
+            for _, level, status in ros.statuses(diagnostics, "pilot")
+        )
+
+    ros.spin_until(refused, TIMEOUT_S, "a WARN refusing the goal out of the pivot's reach")
+    assert not any(p.mean_speed > 0.0 for p in profiles), "a goal out of reach was flown"
+
+
 def test_odometry_that_stops_stops_the_carrier_until_it_is_back(start_node, ros):
     profiles = ros.record(CarrierSpeedProfile, MOTOR_CMD_PROFILE.name)
     diagnostics = ros.record_diagnostics()

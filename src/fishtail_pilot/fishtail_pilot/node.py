@@ -248,6 +248,10 @@ class PilotNode(SuiteNodeBase):
             self.get_logger().info(
                 f"goal reached: fish at ({pose.position.x:.3f}, {pose.position.y:.3f}) m"
             )
+        refusal = self.pilot.pop_refusal()
+        if refusal is not None:
+            # Given up in flight (or judged on the first odometry): said as a refused goal is.
+            self._refuse(refusal)
         self._send(command, now_ns)
 
     def _send(self, command: PilotCommand, now_ns: int, force: bool = False) -> None:

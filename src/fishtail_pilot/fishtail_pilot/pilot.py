@@ -190,6 +190,11 @@ PEAK_MARGIN = 1e-9
 MAX_CONTROL_STEP_S = 0.2
 #: The lowest carrier speed while a speed is wanted, as a share of the feed-forward's.
 MIN_FEED_FORWARD_SHARE = 0.5
+#: A steering turns both ways when its strongest turn each way is at least this share of its
+#: strongest turn the other way; below, it turns one way only. The pivot shift turns right at
+#: most a tenth as strongly as left (no more than the Cardan tail's own curve), the modulation
+#: both ways alike: any share between serves.
+BOTH_WAYS_SHARE = 0.5
 #: A goal further than this from the world origin in x or y is refused (m): a fish in a tank or
 #: a pond swims metres, and a goal kilometres off is a mistake (a unit or a garbled message).
 MAX_GOAL_COORDINATE_M = 1000.0
@@ -250,6 +255,11 @@ class Pilot:
         self.feedback_valid = True
         #: Odometry samples dropped for a non-finite value, since start-up.
         self.dropped_samples = 0
+        #: Why the goal was given up while flying it (out of reach from where the fish got to),
+        #: until :meth:`pop_refusal` takes it.
+        self.refusal: str | None = None
+        #: Whether the goal's reach was judged from a known pose (at set_goal or since).
+        self._reach_judged = False
 
     # ------------------------------------------------------------------ commands
     def set_velocity(self, forward_m_s: float, yaw_rate_rad_s: float) -> str | None:
@@ -275,8 +285,10 @@ class Pilot:
     def set_goal(self, x_m: float, y_m: float) -> str | None:
         """Swim to (x, y) in the world frame; the reason if it is refused.
 
-        A goal that is not finite, or beyond :data:`MAX_GOAL_COORDINATE_M` of the world origin in
-        x or y, is refused and the pilot goes on as before.
+        A goal that is not finite, beyond :data:`MAX_GOAL_COORDINATE_M` of the world origin in
+        x or y, or out of the steering's reach from the fish's pose (:meth:`reach_refusal`), is
+        refused and the pilot goes on as before. Before the first odometry the reach is judged
+        on the first sample: a goal out of reach then is given up (:attr:`refusal`).
         """
         if not (math.isfinite(x_m) and math.isfinite(y_m)):
             return f"goal_pose ({x_m!r}, {y_m!r}) is not finite"
@@ -285,6 +297,14 @@ class Pilot:
                 f"goal_pose ({x_m:g}, {y_m:g}) m refused: goals lie within "
                 f"{MAX_GOAL_COORDINATE_M:g} m of the world origin in x and y"
             )
+        repeated = self.mode is Mode.GOAL and self.goal == (x_m, y_m)
+        if not repeated:
+            # A goal sent again (fishtail-run does every second) is the one being flown: its
+            # reach is the flight's to judge (_steer_to_goal).
+            reason = self.reach_refusal(x_m, y_m)
+            if reason is not None:
+                return reason
+            self._reach_judged = all(map(math.isfinite, self.position_m))
         if self.mode is not Mode.GOAL:
             self._integral_rad_s = 0.0
         self.mode = Mode.GOAL
@@ -374,6 +394,17 @@ class Pilot:
             self.goal_reached = True
             self.stop()
             return
+        # Judged in full once the pose is known; in flight only once the fish has passed it: the
+        # heading swings while the tail starts and within every beat, and a goal a hair beyond
+        # the reach ahead may still be passed within the tolerance.
+        reason = self.reach_refusal(*self.goal, passed_only=self._reach_judged)
+        self._reach_judged = True
+        if reason is not None:
+            # Flown on, a goal the fish cannot turn to would be swum away from for ever.
+            self.refusal = reason
+            self.goal = None
+            self.stop()
+            return
         settings = self.settings
         self.speed_command_m_s = settings.cruise_speed_m_s * min(
             1.0, distance / settings.slow_down_distance_m
@@ -392,10 +423,12 @@ class Pilot:
         # of a goal less deep inside. The circle is the steering table's own: the default fish
         # answers its steering within a beat, and a wider circle sends it straight on past a goal
         # on its tightest circle, as a square's next corner is, to loop back from metres away.
+        # A one-way steering flies no goal inside its circle (reach_refusal), and on its other
+        # side its widest turn comes closest.
         assert self.goal is not None
         radius = self.min_turning_radius_m(bearing_error_rad)
         heading = self.predicted_heading_rad
-        if not (math.isfinite(radius) and math.isfinite(heading)):
+        if self.one_way() != 0.0 or not (math.isfinite(radius) and math.isfinite(heading)):
             return False
         side = math.copysign(1.0, bearing_error_rad)
         centre_x = self.position_m[0] - side * radius * math.sin(heading)
@@ -509,6 +542,86 @@ class Pilot:
         bound = self.max_heading_lead_rad()
         if abs(lead) > bound:
             self._heading_reference = self.mean_heading_rad + math.copysign(bound, lead)
+
+    def pop_refusal(self) -> str | None:
+        """Why the goal was given up while flying it (None: it was not), once."""
+        reason, self.refusal = self.refusal, None
+        return reason
+
+    def one_way(self) -> float:
+        """+1 if the steering turns only left, -1 only right, 0 both ways (or not at all).
+
+        One way only: its strongest turn the other way is under :data:`BOTH_WAYS_SHARE` of its
+        strongest turn this way.
+        """
+        low, high = self.steering.yaw_per_beat_range_rad
+        left, right = max(high, 0.0), max(-low, 0.0)
+        if right < BOTH_WAYS_SHARE * left:
+            return 1.0
+        if left < BOTH_WAYS_SHARE * right:
+            return -1.0
+        return 0.0
+
+    def reach_refusal(self, x_m: float, y_m: float, passed_only: bool = False) -> str | None:
+        """Why (x, y) is out of a one-way steering's reach from the fish's pose (None: in reach).
+
+        A steering that turns both ways reaches every goal: one inside its tightest circle it
+        passes straight until the goal is outside. One that turns only one way cannot do that
+        (the goal would fall to its other side), so it reaches a goal only if the goal lies on
+        its way and outside its tightest circle, or ahead on its other way within the widest
+        circle it turns that way; within the goal tolerance of either circle counts. Unknown
+        (None) before the first odometry. ``passed_only``: a goal ahead of the fish is not
+        judged (None).
+        """
+        way = self.one_way()
+        heading = self.predicted_heading_rad
+        x0_m, y0_m = self.position_m
+        if way == 0.0 or not all(map(math.isfinite, (heading, x0_m, y0_m))):
+            return None
+        tolerance = self.settings.goal_tolerance_m
+        dx, dy = x_m - x0_m, y_m - y0_m
+        distance = math.hypot(dx, dy)
+        if distance <= tolerance:
+            return None
+        # The goal in the fish's frame, mirrored so that the steering's one way is to the left.
+        ahead = dx * math.cos(heading) + dy * math.sin(heading)
+        aside = way * (dy * math.cos(heading) - dx * math.sin(heading))
+        if passed_only and ahead >= 0.0:
+            return None
+        low, high = self.steering.yaw_per_beat_range_rad
+        strong, weak = (high, low) if way > 0.0 else (low, high)
+        tightest_m = abs(self._turning_radius_m(strong))
+        # The weak end's signed radius, > 0 where even it turns the one way.
+        weakest_m = way * self._turning_radius_m(weak)
+        one, other = ("left", "right") if way > 0.0 else ("right", "left")
+        side = one if aside >= 0.0 else other
+        angle = abs(math.degrees(math.atan2(aside, ahead)))
+        start = (
+            f"goal ({x_m:.3f}, {y_m:.3f}) m is out of reach: {self.steering.name} steering "
+            f"turns only {one}, tightest radius {tightest_m:.3g} m; the goal lies "
+            f"{distance:.3g} m away, {angle:.0f}° to the {side}, "
+        )
+        end = f" (it reaches goals ahead or to the {one} outside that circle)"
+        if tightest_m - math.hypot(ahead, aside - tightest_m) > tolerance:
+            return start + "inside that circle" + end
+        if aside < 0.0:
+            turns_back = weakest_m < 0.0 and math.isfinite(weakest_m)
+            if turns_back:
+                beyond = math.hypot(ahead, aside - weakest_m) < -weakest_m - tolerance
+            else:
+                beyond = aside < -tolerance
+            if ahead < 0.0 or beyond:
+                where = (
+                    f"where it turns no tighter than a radius of {-weakest_m:.3g} m"
+                    if turns_back
+                    else "where it does not turn"
+                )
+                return start + where + end
+        return None
+
+    def _turning_radius_m(self, yaw_per_beat_rad: float) -> float:
+        """The steering's signed steady radius at ``yaw_per_beat_rad`` (m, > 0 left)."""
+        return self.steering.turning_radius_at(self.steering.input_for(yaw_per_beat_rad))
 
     def min_turning_radius_m(self, direction: float) -> float:
         """The tightest circle the steering gives turning towards ``direction``'s sign (m)."""

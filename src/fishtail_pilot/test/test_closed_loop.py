@@ -4,7 +4,8 @@ The bounds are the behaviour the pilot documents (docs/steering.md): a speed ste
 within 10 % of the command in 4 beats, a step down in 15 (the fish can only glide down: drag is
 its one brake); a positive yaw-rate command turns the fish to the left, at the commanded rate
 once settled; a goal 3 m away, ahead, aside or behind, is reached within 0.2 m in the stated
-time; the 2 m square is flown round without a loop within 1.3 times its documented time.
+time; the 2 m square is flown round without a loop within 1.3 times its documented time; pivot
+steering refuses the goals it cannot turn to and reaches one it can.
 """
 
 from __future__ import annotations
@@ -187,3 +188,43 @@ def test_the_square_is_flown_round_without_a_loop_in_its_documented_time(mechani
     outside = distance_to_square_m(loop.x_m[flown], loop.y_m[flown], SQUARE_SIDE_M)
     assert np.max(outside) <= 2.0 * tightest_radius_m(mechanism) + tolerance
 
+
+def flight_with_refusals(mechanism: str, goal, duration_s: float):
+    """Pivot steering to ``goal`` set at the start: the run and the (time, reason) refusals."""
+    refusals: list[tuple[float, str]] = []
+
+    def script(time_s, pilot):
+        if time_s == 0.0:
+            reason = pilot.set_goal(*goal)
+            if reason is not None:
+                refusals.append((time_s, reason))
+        reason = pilot.pop_refusal()
+        if reason is not None:
+            refusals.append((time_s, reason))
+
+    return run(mechanism, duration_s, script, "pivot"), refusals
+
+
+@pytest.mark.parametrize("mechanism", MECHANISMS)
+@pytest.mark.parametrize(
+    ("goal", "where"),
+    # 18 degrees left, within the tightest left circle (15-17 m); 18 degrees right.
+    [((3.0, 1.0), "inside that circle"), ((3.0, -1.0), "to the right")],
+)
+def test_pivot_steering_refuses_a_goal_it_cannot_turn_to_and_never_runs_the_carrier(
+    mechanism, goal, where
+):
+    loop, refusals = flight_with_refusals(mechanism, goal, 2.0)
+    # Set before the first odometry: judged on the first sample.
+    (when, reason), *_ = refusals
+    assert when <= 1.0 / SAMPLE_RATE_HZ + 1e-12
+    assert "out of reach: pivot steering turns only left" in reason and where in reason
+    assert np.all(loop.carrier_mean_speed_rad_s == 0.0)
+
+
+@pytest.mark.parametrize("mechanism", MECHANISMS)
+def test_pivot_steering_reaches_a_goal_ahead_and_to_the_left_outside_its_circle(mechanism):
+    goal = (10.0, 2.0)
+    loop, refusals = flight_with_refusals(mechanism, goal, 45.0)
+    assert refusals == []
+    assert time_to_reach(loop, goal, 0.2) <= 45.0

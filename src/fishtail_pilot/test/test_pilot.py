@@ -242,3 +242,101 @@ def test_a_goal_beyond_the_sane_range_is_refused_with_a_reason_naming_it():
     assert fish_pilot.set_goal(3.0, -MAX_GOAL_COORDINATE_M - 1.0) is not None
     assert fish_pilot.set_goal(-MAX_GOAL_COORDINATE_M, MAX_GOAL_COORDINATE_M) is None
     assert fish_pilot.mode is Mode.GOAL
+
+
+def left_only() -> PivotChannel:
+    # A made-up pivot table that turns left up to 0.05 rad a beat and right up to 0.005: with
+    # 0.25 m a beat its tightest circles, (U/f) / (2 sin(r/2f)), are 5.0 m left and 50 m right.
+    return PivotChannel([-0.02, 0.0, 0.02], [0.05, 0.0, -0.005], DISTANCE)
+
+
+def at_rest(fish_pilot: Pilot, yaw: float = 0.0) -> None:
+    """One odometry sample: the fish at rest at the origin, heading ``yaw``."""
+    fish_pilot.observe(0.0, 0.0, 0.0, yaw, 0.0, 0.0)
+
+
+def test_a_steering_that_turns_a_tenth_as_strongly_one_way_turns_only_the_other():
+    assert pilot(left_only()).one_way() == 1.0
+    mirrored = PivotChannel([-0.02, 0.0, 0.02], [0.005, 0.0, -0.05], DISTANCE)
+    assert pilot(mirrored).one_way() == -1.0
+    assert pilot(modulation(0.3)).one_way() == 0.0
+
+
+def test_a_goal_to_the_side_a_one_way_steering_hardly_turns_to_is_refused_with_the_reason():
+    fish_pilot = pilot(left_only())
+    at_rest(fish_pilot)
+    # 1 m right at 3 m ahead: inside the 50 m circle of its strongest right turn (centre 50 m to
+    # the right, the goal 49.09 m from it).
+    reason = fish_pilot.set_goal(3.0, -1.0)
+    assert reason is not None
+    for part in (
+        "goal (3.000, -1.000) m is out of reach",
+        "pivot steering turns only left",
+        "tightest radius 5 m",
+        "18° to the right",
+        "no tighter than a radius of 50 m",
+    ):
+        assert part in reason
+    assert fish_pilot.mode is Mode.IDLE and fish_pilot.goal is None
+    # Behind on that side, however far: the weak turn would take a whole circle of 50 m.
+    assert fish_pilot.set_goal(-30.0, -1.0) is not None
+
+
+def test_a_goal_inside_a_one_way_steerings_tightest_circle_is_refused():
+    fish_pilot = pilot(left_only())
+    at_rest(fish_pilot)
+    # The left circle's centre is (0, 5): the goal 4.47 m from it, 0.53 m inside.
+    reason = fish_pilot.set_goal(2.0, 1.0)
+    assert reason is not None and "inside that circle" in reason and "to the left" in reason
+    assert fish_pilot.mode is Mode.IDLE
+
+
+def test_goals_a_one_way_steering_reaches_are_accepted():
+    # Left of it outside the 5 m circle, ahead or behind (it turns round the left way), or on
+    # it ((3, 1) is 5 m from its centre (0, 5)); to its right outside the 50 m circle.
+    for goal in ((10.0, 2.0), (-10.0, 3.0), (3.0, 1.0), (10.0, -0.5)):
+        fish_pilot = pilot(left_only())
+        at_rest(fish_pilot)
+        assert fish_pilot.set_goal(*goal) is None, goal
+        assert fish_pilot.mode is Mode.GOAL
+
+
+def test_the_reach_is_judged_from_the_fish_heading():
+    fish_pilot = pilot(left_only())
+    at_rest(fish_pilot, yaw=math.pi / 2)  # heading north: its left is west
+    assert fish_pilot.set_goal(-2.0, 10.0) is None
+    assert fish_pilot.set_goal(2.0, 10.0) is not None
+
+
+def test_a_steering_that_turns_both_ways_reaches_every_goal():
+    for goal in ((2.0, 1.0), (3.0, -1.0), (-3.0, 0.0), (0.1, 0.5)):
+        fish_pilot = pilot(modulation(0.3))
+        at_rest(fish_pilot)
+        assert fish_pilot.set_goal(*goal) is None, goal
+
+
+def test_a_goal_set_before_the_first_odometry_is_judged_on_it_and_given_up_with_the_reason():
+    fish_pilot = pilot(left_only())
+    assert fish_pilot.set_goal(3.0, -1.0) is None  # the fish's pose is not known yet
+    command = fish_pilot.observe(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    assert command.carrier.mean_speed_rad_s == 0.0
+    reason = fish_pilot.pop_refusal()
+    assert reason is not None and "out of reach" in reason
+    assert fish_pilot.pop_refusal() is None  # said once
+    assert fish_pilot.mode is Mode.IDLE and fish_pilot.goal is None and not fish_pilot.goal_reached
+
+
+def test_in_flight_a_one_way_goal_is_given_up_only_once_passed():
+    fish_pilot = pilot(left_only())
+    at_rest(fish_pilot)
+    assert fish_pilot.set_goal(10.0, 2.0) is None
+    # Drifted left of the line: the goal, 0.6 m right at 5 m ahead, is beyond the weak turn,
+    # but not passed, and sent again it is not refused: the fish may yet pass within reach.
+    command = fish_pilot.observe(0.05, 5.0, 2.6, 0.0, 0.2, 0.0)
+    assert fish_pilot.set_goal(10.0, 2.0) is None
+    assert fish_pilot.pop_refusal() is None and command.carrier.mean_speed_rad_s > 0.0
+    # Passed, 0.4 m to the right: given up, with the reason, and the carrier stops.
+    command = fish_pilot.observe(0.1, 10.5, 2.4, 0.0, 0.2, 0.0)
+    reason = fish_pilot.pop_refusal()
+    assert reason is not None and "to the right" in reason
+    assert command.carrier.mean_speed_rad_s == 0.0 and fish_pilot.mode is Mode.IDLE
