@@ -29,11 +29,11 @@ import psutil
 import pytest
 
 from fishtail_common.command_line import OneLineErrorParser
-from fishtail_design import executors
+from fishtail_design import dask_executor, executors
+from fishtail_design.dask_executor import DaskExecutor
 from fishtail_design.errors import ExecutorError
 from fishtail_design.executors import (
     BATCH_SIZE,
-    DaskExecutor,
     InProcessExecutor,
     LocalProcessExecutor,
     add_executor_arguments,
@@ -237,7 +237,7 @@ def test_an_unreachable_scheduler_is_refused_in_one_line(
         silent.listen()
         cases = ((refusing, 5.0, ": [Errno 111] Connection refused"), (silent, 0.3, ""))
         for sock, timeout_s, reason in cases:
-            monkeypatch.setattr(executors, "CONNECT_TIMEOUT_S", timeout_s)
+            monkeypatch.setattr(dask_executor, "CONNECT_TIMEOUT_S", timeout_s)
             address = f"tcp://127.0.0.1:{sock.getsockname()[1]}"
             # The deadline catches a hang; how fast the refusal comes is the machine's load's.
             with pytest.raises(ExecutorError) as raised:

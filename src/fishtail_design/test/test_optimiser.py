@@ -89,7 +89,7 @@ def test_the_synthesis_search_on_a_dask_cluster_ends_on_the_in_process_front():
     import dataclasses
 
     from fishtail_common.parameter_files import default_parameter_file
-    from fishtail_design.executors import DaskExecutor
+    from fishtail_design.dask_executor import DaskExecutor
     from fishtail_design.optimiser import optimise
     from fishtail_design.problem import read_problem
 
