@@ -226,11 +226,11 @@ fi
 # --- 6. the swimming integrator, compiled once ------------------------------------------------
 # The simulator's RK4 loop is compiled by numba (10-20 s on 2 cores) and cached on disk, beside
 # fused.py in src/ (the symlinked build/ path leads there) or under NUMBA_CACHE_DIR; the same run
-# compiles the synthesis' cycle kernel (cycle_kernel.py). Done here, so that the first `make run`
-# swims at once instead of compiling while the motor turns. numba reloads the caches while their
-# sources (those files and the formulas they compile) keep their size and mtime, so the stamp
-# hashes those, the cache location and the caches' index files (a deleted cache is compiled
-# again).
+# compiles the engine's batch pass (drive_pass_numba.py) and the synthesis' cycle kernel
+# (cycle_kernel.py). Done here, so that the first `make run` swims at once instead of compiling
+# while the motor turns. numba reloads the caches while their sources (those files and the
+# formulas they compile) keep their size and mtime, so the stamp hashes those, the cache
+# location and the caches' index files (a deleted cache is compiled again).
 FUSED=src/fishtail_plant/fishtail_plant/fish/fused.py
 COMPILED_SOURCES=(
   "$FUSED"
@@ -239,13 +239,16 @@ COMPILED_SOURCES=(
   src/fishtail_plant/fishtail_plant/fish/figures.py
   src/fishtail_plant/fishtail_plant/fish/tail_drive.py
   src/fishtail_kinematics/fishtail_kinematics/engine/oscillatory_tail.py
+  src/fishtail_kinematics/fishtail_kinematics/engine/drive_pass_numba.py
 )
 integrator_key() {
   {
     echo "$key ${NUMBA_CACHE_DIR:-}"
     stat -c '%n %s %Y' "${COMPILED_SOURCES[@]}"
     find "${NUMBA_CACHE_DIR:-$(dirname "$FUSED")/__pycache__}" \
-      \( -name 'fused._rk4_steps-*.nbi' -o -name 'cycle_kernel._held_cycles-*.nbi' \) \
+      "${NUMBA_CACHE_DIR:-src/fishtail_kinematics/fishtail_kinematics/engine/__pycache__}" \
+      \( -name 'fused._rk4_steps-*.nbi' -o -name 'cycle_kernel._held_cycles-*.nbi' \
+      -o -name 'drive_pass_numba._rates-*.nbi' \) \
       -exec stat -c '%n %s %Y' {} + 2>/dev/null | LC_ALL=C sort
   } | sha256sum | cut -c1-32
 }

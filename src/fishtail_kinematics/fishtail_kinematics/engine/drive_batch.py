@@ -20,11 +20,21 @@ does not assemble is kept, with NaN where it has no pose, so that a batch keeps 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine import drive_pass
+from fishtail_kinematics.engine.blocks import BLOCK_SAMPLES
 from fishtail_kinematics.engine.geometry import FloatArray, OscillatoryState
-from fishtail_kinematics.engine.oscillatory_tail import DriveConstants, solve_drive_arrays
+from fishtail_kinematics.engine.oscillatory_tail import (
+    DRIVE_ARRAY_FIELDS,
+    DRIVE_SCRATCH,
+    DriveConstants,
+    drive_coefficients,
+    solve_drive_arrays,
+)
 from fishtail_kinematics.engine.tail_base import assembly_margins
 
 
@@ -78,6 +88,9 @@ class OscillatoryBatch:
         self.constants = DriveConstants(
             r, pr, rs, st, os_, psi, self.theta2_mid, self.theta2_mid, True
         )
+        #: Whether :meth:`solve` uses the compiled pass where numba is there (the same numbers
+        #: to rounding; False: numpy's).
+        self.compiled = True
 
     @staticmethod
     def fin_angle_field() -> str:
@@ -94,11 +107,67 @@ class OscillatoryBatch:
         """Every linkage at carrier angles and speeds of shape (..., N); cos, sin of the tail link.
 
         The inputs broadcast against (N,) (e.g. (samples, N) or (samples, 1)); a linkage that does
-        not assemble gives NaN.
+        not assemble gives NaN. Angles shared by every linkage, (samples, 1), cost one cosine and
+        one sine each whatever N (the linkages share their carrier phase). The batch runs a few
+        rows at a time (about :data:`~fishtail_kinematics.engine.blocks.BLOCK_SAMPLES` values),
+        so that the solve's temporaries stay in the cache, straight into the results: with
+        :attr:`compiled` and numba there, by the compiled pass of :mod:`~.drive_pass` (whatever
+        the batch's size, so that a linkage's numbers do not depend on it); else, for more than
+        a block, by numpy's blocks. The state's ``motor_angle`` and ``motor_velocity`` are the
+        inputs broadcast (read-only views).
         """
         angle = np.asarray(motor_angle, dtype=float)
-        shape = np.broadcast_shapes(angle.shape, np.shape(motor_velocity), (self.size,))
-        phi = np.array(np.broadcast_to(angle, shape))
-        phi_dot = np.broadcast_to(np.asarray(motor_velocity, dtype=float), shape)
+        velocity = np.asarray(motor_velocity, dtype=float)
+        shape = np.broadcast_shapes(angle.shape, velocity.shape, (self.size,))
+        c = self.constants
+        dispatcher = drive_pass.compiled_pass() if self.compiled else None
+        if dispatcher is None and (len(shape) < 2 or math.prod(shape) <= BLOCK_SAMPLES):
+            with np.errstate(invalid="ignore"):
+                return solve_drive_arrays(c, angle, velocity)
+        shared = {"fin_angle"} if c.mounted_at_mid else set()
+        fields = [name for name in DRIVE_ARRAY_FIELDS if name not in shared]
+        results = {name: np.empty(shape) for name in fields}
+        rows = {name: value.reshape(-1, self.size) for name, value in results.items()}
+        angle_rows, velocity_rows = _rows(angle, shape), _rows(velocity, shape)
+        step = max(1, BLOCK_SAMPLES // self.size)
+        coefficients = drive_coefficients(c)
+        if dispatcher is not None:
+            table = drive_pass.coefficient_table(coefficients, self.size)
+            scratch = np.empty((len(drive_pass.SCRATCH_FIELDS), step, self.size))
+        else:
+            scratch = np.empty((DRIVE_SCRATCH, step, self.size))
         with np.errstate(invalid="ignore"):
-            return solve_drive_arrays(self.constants, phi, phi_dot)
+            for start in range(0, angle_rows.shape[0], step):
+                block = slice(start, start + step)
+                count = len(range(*block.indices(angle_rows.shape[0])))
+                out = {name: value[block] for name, value in rows.items()}
+                work = list(scratch[:, :count])
+                if dispatcher is not None:
+                    drive_pass.solve_block(
+                        dispatcher, c, table, angle_rows[block], velocity_rows[block], out, work
+                    )
+                else:
+                    solve_drive_arrays(
+                        c, angle_rows[block], velocity_rows[block], out, work, coefficients
+                    )
+        if c.mounted_at_mid:
+            results["fin_angle"] = results["theta3"]
+        theta2_dot = results["theta2_dot"]
+        state = OscillatoryState(
+            np.broadcast_to(angle, shape), np.broadcast_to(velocity, shape),
+            results["slider_position"], results["slider_velocity"], results["theta1"],
+            results["theta1_dot"], results["theta2"], theta2_dot, results["theta3"], theta2_dot,
+            results["tip_x"], results["tip_y"], results["tip_x_dot"], results["tip_y_dot"],
+            results["fin_angle"], theta2_dot,
+        )  # fmt: skip
+        return state, results["cos_fin"], results["sin_fin"]
+
+
+def _rows(value: FloatArray, shape: tuple[int, ...]) -> FloatArray:
+    """``value`` over the rows of ``shape`` (all but its last axis), its own last axis kept.
+
+    Shape (rows, 1) for a value shared by the linkages, (rows, N) for one per linkage (views
+    where the layout allows).
+    """
+    last = value.shape[-1] if value.ndim else 1
+    return np.broadcast_to(value, (*shape[:-1], last)).reshape(-1, last)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Mapping
 from typing import NamedTuple, TypeAlias, cast
 
 import numpy as np
@@ -108,12 +109,13 @@ class OscillatoryTail(Tail):
 
     def _set_constants(self) -> None:
         mounting = getattr(self, "tail_mounting_rad", self.theta2_mid)
-        self._cos_mounting, self._sin_mounting = math.cos(mounting), math.sin(mounting)
         #: The numbers of the array path (:func:`solve_drive_arrays`).
         self.constants = DriveConstants(
             self._R, self._PR, self._RS, self._ST, self._OS, self._psi, self.theta2_mid,
             mounting, self.theta2_mid == mounting,
         )  # fmt: skip
+        #: The float path's numbers (:func:`drive_pose`), derived once.
+        self._coefficients = tuple(float(value) for value in drive_coefficients(self.constants))
 
     @property
     def drive(self) -> OscillatoryTail:
@@ -199,11 +201,9 @@ class OscillatoryTail(Tail):
         carrier = phi + self._psi
         (
             op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, tip_x, tip_y, tip_x_dot,
-            tip_y_dot, fin_angle, _, _,
+            tip_y_dot, fin_angle, _, _, _, _, _,
         ) = drive_pose(
-            math.cos(carrier), math.sin(carrier), phi_dot, self._R, self._PR, self._RS, self._ST,
-            self._OS, self.theta2_mid, self.tail_mounting_rad, self._cos_mounting,
-            self._sin_mounting,
+            math.cos(carrier), math.sin(carrier), phi_dot, *self._coefficients
         )  # fmt: skip
         return OscillatoryState(
             phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
@@ -254,88 +254,193 @@ class DriveConstants(NamedTuple):
     mounted_at_mid: bool
 
 
+#: The arrays :func:`solve_drive_arrays` computes (its ``out=`` keys): the state's fields but the
+#: inputs and the rates that are theta2_dot, and the tail link's cosine and sine.
+DRIVE_ARRAY_FIELDS = (
+    "slider_position", "slider_velocity", "theta1", "theta1_dot", "theta2", "theta2_dot",
+    "theta3", "tip_x", "tip_y", "tip_x_dot", "tip_y_dot", "fin_angle", "cos_fin", "sin_fin",
+)  # fmt: skip
+
+
+def shared_value(value: Real) -> Real:
+    """``value``, or its one value where an array holds the same everywhere (a float)."""
+    array = np.asarray(value)
+    if array.ndim and array.size and bool((array == array.flat[0]).all()):
+        return float(array.flat[0])
+    return value
+
+
+class DriveCoefficients(NamedTuple):
+    """What mechanism 1's solve derives from a linkage's lengths before it takes any angle.
+
+    Floats for one linkage, arrays for many; in the order :func:`drive_pose` takes them (after
+    the carrier's cosine, sine and speed), so that the per-linkage divisions happen once, not at
+    every angle.
+    """
+
+    ring_radius_m: Real
+    pivot_offset_m: Real
+    tail_link_m: Real
+    theta2_mid: Real
+    tail_mounting_rad: Real
+    minus_ring_radius_m: Real
+    offset_squared: Real  # OS²
+    k_constant: Real  # RS² + OS² - PR²
+    half_inverse_rocker: Real  # 0.5 / RS
+    rocker_over_crank: Real  # RS / PR
+    minus_rocker_over_crank: Real
+    offset_over_crank: Real  # OS / PR
+    inverse_crank: Real  # 1 / PR
+    inverse_rocker: Real  # 1 / RS
+    cos_mounting: Real
+    sin_mounting: Real
+
+
+def drive_coefficients(c: DriveConstants) -> DriveCoefficients:
+    """``c``'s :class:`DriveCoefficients` (numpy's cos/sin of the mounting, for every path)."""
+    cos_mounting: Real = np.cos(c.tail_mounting_rad)
+    sin_mounting: Real = np.sin(c.tail_mounting_rad)
+    if np.ndim(cos_mounting) == 0:
+        cos_mounting, sin_mounting = float(cos_mounting), float(sin_mounting)
+    return DriveCoefficients(
+        c.ring_radius_m, c.pivot_offset_m, c.tail_link_m, c.theta2_mid, c.tail_mounting_rad,
+        -c.ring_radius_m, c.pivot_offset_m**2,
+        c.rocker_link_m**2 + c.pivot_offset_m**2 - c.crank_link_m**2, 0.5 / c.rocker_link_m,
+        c.rocker_link_m / c.crank_link_m, -c.rocker_link_m / c.crank_link_m,
+        c.pivot_offset_m / c.crank_link_m, 1.0 / c.crank_link_m, 1.0 / c.rocker_link_m,
+        cos_mounting, sin_mounting,
+    )  # fmt: skip
+
+
+#: Scratch arrays :func:`solve_drive_arrays` works in.
+DRIVE_SCRATCH = 7
+
+
 def solve_drive_arrays(
-    c: DriveConstants, phi: FloatArray, phi_dot: FloatArray
+    c: DriveConstants,
+    phi: FloatArray,
+    phi_dot: FloatArray,
+    out: Mapping[str, FloatArray] | None = None,
+    scratch: list[FloatArray] | None = None,
+    coefficients: DriveCoefficients | None = None,
 ) -> tuple[OscillatoryState, FloatArray, FloatArray]:
     """Mechanism 1 at carrier angles ``phi`` and speeds ``phi_dot`` (arrays), and the tail trig.
 
     Returns the state and cos, sin of the tail link's angle from the body axis. Inputs are not
     checked here (a linkage that cannot assemble gives NaN): :class:`OscillatoryTail` checks them.
+    The angles, speeds and constants broadcast together; the state's ``motor_angle`` and
+    ``motor_velocity`` are the inputs broadcast (read-only views where they are broadcast).
+    Where the linkages share one carrier phase, the carrier's cosine and sine are taken of the
+    angles as given, before they are broadcast against the linkages: a beat's angles for a
+    population cost one call per angle.
+
+    For a caller solving block after block (:class:`~.drive_batch.OscillatoryBatch`): ``out``,
+    arrays of the broadcast shape for any of :data:`DRIVE_ARRAY_FIELDS`, written in place
+    (``fin_angle`` is ``theta3`` unless the tail link is mounted off mid-swing); ``scratch``,
+    :data:`DRIVE_SCRATCH` arrays of that shape to work in instead of fresh memory (whose first
+    touch costs more than the arithmetic); ``coefficients``, ``drive_coefficients(c)``.
     """
-    k_constant = c.rocker_link_m**2 + c.pivot_offset_m**2 - c.crank_link_m**2
-    cos_mounting, sin_mounting = np.cos(c.tail_mounting_rad), np.sin(c.tail_mounting_rad)
-    # np.sin/np.cos/np.hypot cost ~8 ns a sample in float64, the algebra below ~0.5 ns an
-    # operation: so only the carrier angle goes through trigonometry, every other sine and
-    # cosine comes from the angle-sum identities, and the work is done in place.
-    phi, phi_dot = np.broadcast_arrays(phi, phi_dot)
-    carrier = phi + c.phase_rad
+    targets = out or {}
+    d = coefficients or drive_coefficients(c)
+    shape = np.broadcast_shapes(np.shape(phi), np.shape(phi_dot), np.shape(c.ring_radius_m))
+    spare = list(scratch) if scratch is not None else []
+
+    def work() -> FloatArray:
+        return spare.pop() if spare else np.empty(shape)
+
+    def into(name: str, otherwise: FloatArray | None = None) -> FloatArray:
+        # The caller's array for ``name``, else ``otherwise`` (a spent temporary), else new.
+        target = targets.get(name, otherwise)
+        return work() if target is None else target
+
+    # np.sin/np.cos cost ~8 ns a sample in float64, the algebra below ~0.5 ns an operation: so
+    # only the carrier angle goes through trigonometry, every other sine and cosine comes from
+    # the angle-sum identities, and every operation writes into memory already in the cache.
+    phase = shared_value(c.phase_rad)
+    angles = np.broadcast_shapes(np.shape(phi), np.shape(phase))
+    carrier = np.add(phi, phase, out=np.empty(angles))
     cos_carrier = np.cos(carrier)
     sin_carrier = np.sin(carrier, out=carrier)
-    op = np.multiply(cos_carrier, c.ring_radius_m, out=cos_carrier)
-    op_dot = np.multiply(sin_carrier, phi_dot, out=sin_carrier)
-    op_dot *= -c.ring_radius_m
+    whole = angles == shape
+    op = np.multiply(
+        cos_carrier, d.ring_radius_m, out=into("slider_position", cos_carrier if whole else None)
+    )
+    op_dot = np.multiply(sin_carrier, phi_dot, out=sin_carrier if whole else None)
+    spent = op_dot if op_dot.shape == shape else None
+    op_dot = np.multiply(op_dot, d.minus_ring_radius_m, out=into("slider_velocity", spent))
     # alpha = atan2(OS, OP), beta = asin K, theta2 = alpha + beta.
-    distance = np.square(op)
-    k = distance + k_constant
-    distance += c.pivot_offset_m**2
+    distance = np.square(op, out=work())
+    k = np.add(distance, d.k_constant, out=work())
+    distance += d.offset_squared
     np.sqrt(distance, out=distance)
     k /= distance
-    k *= 0.5 / c.rocker_link_m
-    cos_alpha = op / distance
-    sin_alpha = np.divide(c.pivot_offset_m, distance, out=distance)
-    theta2 = np.arctan2(c.pivot_offset_m, op)
-    theta2 += np.arcsin(k)
-    cos_beta = 1.0 - k
-    cos_beta *= 1.0 + k
+    k *= d.half_inverse_rocker
+    cos_alpha = np.divide(op, distance, out=work())
+    sin_alpha = np.divide(d.pivot_offset_m, distance, out=distance)
+    theta2 = np.arctan2(d.pivot_offset_m, op, out=into("theta2"))
+    spent = work()
+    theta2 += np.arcsin(k, out=spent)
+    cos_beta = np.subtract(1.0, k, out=spent)
+    other = work()
+    cos_beta *= np.add(1.0, k, out=other)
     np.sqrt(cos_beta, out=cos_beta)
-    sin2 = sin_alpha * cos_beta
-    sin2 += cos_alpha * k
+    sin2 = np.multiply(sin_alpha, cos_beta, out=other)
+    product = work()
+    sin2 += np.multiply(cos_alpha, k, out=product)
     cos2 = np.multiply(cos_alpha, cos_beta, out=cos_alpha)
     cos2 -= np.multiply(sin_alpha, k, out=k)
     # Joint R relative to P, scaled by 1/PR: (cos theta1, -sin theta1).
-    cos1 = np.multiply(cos2, c.rocker_link_m / c.crank_link_m, out=cos_beta)
-    cos1 += c.pivot_offset_m / c.crank_link_m
-    sin1 = np.multiply(sin2, -c.rocker_link_m / c.crank_link_m, out=sin_alpha)
-    sin1 += op * (1.0 / c.crank_link_m)
-    theta1 = np.arctan2(sin1, cos1)
-    sin_sum = sin1 * cos2
-    sin_sum += cos1 * sin2
+    cos1 = np.multiply(cos2, d.rocker_over_crank, out=cos_beta)
+    cos1 += d.offset_over_crank
+    sin1 = np.multiply(sin2, d.minus_rocker_over_crank, out=sin_alpha)
+    sin1 += np.multiply(op, d.inverse_crank, out=k)
+    theta1 = np.arctan2(sin1, cos1, out=into("theta1"))
+    sin_sum = np.multiply(sin1, cos2, out=k)
+    sin_sum += np.multiply(cos1, sin2, out=product)
     rate = np.divide(op_dot, sin_sum, out=sin_sum)
-    theta2_dot = rate * sin1
-    theta2_dot *= 1.0 / c.rocker_link_m
-    theta1_dot = np.multiply(rate, sin2, out=rate)
-    theta1_dot *= 1.0 / c.crank_link_m
-    theta3 = theta2 - c.theta2_mid
+    theta2_dot = np.multiply(rate, sin1, out=into("theta2_dot"))
+    theta2_dot *= d.inverse_rocker
+    theta1_dot = np.multiply(rate, sin2, out=into("theta1_dot", rate))
+    theta1_dot *= d.inverse_crank
+    theta3 = np.subtract(theta2, d.theta2_mid, out=into("theta3"))
     # Unshifted, the body-frame angle is theta3 itself: the same array, no extra pass.
-    fin_angle = theta3 if c.mounted_at_mid else theta2 - c.tail_mounting_rad
-    sin_fin = sin2 * cos_mounting
-    sin_fin -= cos2 * sin_mounting
-    cos_fin = np.multiply(cos2, cos_mounting, out=cos2)
-    cos_fin += sin2 * sin_mounting
-    tip_x = cos_fin * c.tail_link_m
-    tip_x += c.pivot_offset_m
-    tip_y = sin_fin * c.tail_link_m
-    tip_x_dot = tip_y * theta2_dot
+    fin_angle = theta3 if c.mounted_at_mid else np.subtract(
+        theta2, d.tail_mounting_rad, out=into("fin_angle")
+    )  # fmt: skip
+    sin_fin = np.multiply(sin2, d.cos_mounting, out=into("sin_fin"))
+    sin_fin -= np.multiply(cos2, d.sin_mounting, out=product)
+    cos_fin = np.multiply(cos2, d.cos_mounting, out=into("cos_fin", cos2))
+    cos_fin += np.multiply(sin2, d.sin_mounting, out=product)
+    tip_x = np.multiply(cos_fin, d.tail_link_m, out=into("tip_x"))
+    tip_x += d.pivot_offset_m
+    tip_y = np.multiply(sin_fin, d.tail_link_m, out=into("tip_y"))
+    tip_x_dot = np.multiply(tip_y, theta2_dot, out=into("tip_x_dot"))
     np.negative(tip_x_dot, out=tip_x_dot)
-    tip_y_dot = cos_fin * theta2_dot
-    tip_y_dot *= c.tail_link_m
+    tip_y_dot = np.multiply(cos_fin, theta2_dot, out=into("tip_y_dot"))
+    tip_y_dot *= d.tail_link_m
+    angle, velocity = (
+        value if np.shape(value) == shape else np.broadcast_to(value, shape)
+        for value in (phi, phi_dot)
+    )
     state = OscillatoryState(
-        phi, phi_dot, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3, theta2_dot,
-        tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
+        angle, velocity, op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta3,
+        theta2_dot, tip_x, tip_y, tip_x_dot, tip_y_dot, fin_angle, theta2_dot,
     )  # fmt: skip
     return state, cos_fin, sin_fin
 
 
 #: What :func:`drive_pose` returns, in order (theta3_dot and fin_angle_dot are theta2_dot; the
-#: fin angle is the tail link's from the body axis, theta2 minus its mounting).
+#: fin angle is the tail link's from the body axis, theta2 minus its mounting; sin_beta is asin's
+#: argument K, theta2 = atan2(OS, OP) + asin K, and theta1 = atan2(sin_theta1, cos_theta1)).
 DRIVE_POSE_FIELDS = (
     "slider_position", "slider_velocity", "theta1", "theta1_dot", "theta2", "theta2_dot", "theta3",
-    "tip_x", "tip_y", "tip_x_dot", "tip_y_dot", "fin_angle", "cos_fin", "sin_fin",
+    "tip_x", "tip_y", "tip_x_dot", "tip_y_dot", "fin_angle", "cos_fin", "sin_fin", "sin_beta",
+    "cos_theta1", "sin_theta1",
 )  # fmt: skip
 #: :func:`drive_pose`'s floats, named by :data:`DRIVE_POSE_FIELDS`.
 DrivePose: TypeAlias = tuple[
     float, float, float, float, float, float, float, float, float, float, float, float, float,
-    float,
+    float, float, float, float,
 ]  # fmt: skip
 
 
@@ -344,12 +449,19 @@ def drive_pose(
     sin_carrier: float,
     phi_dot: float,
     ring_radius_m: float,
-    crank_link_m: float,
-    rocker_link_m: float,
-    tail_link_m: float,
     pivot_offset_m: float,
+    tail_link_m: float,
     theta2_mid: float,
     tail_mounting_rad: float,
+    minus_ring_radius_m: float,
+    offset_squared: float,
+    k_constant: float,
+    half_inverse_rocker: float,
+    rocker_over_crank: float,
+    minus_rocker_over_crank: float,
+    offset_over_crank: float,
+    inverse_crank: float,
+    inverse_rocker: float,
     cos_mounting: float,
     sin_mounting: float,
 ) -> DrivePose:
@@ -359,40 +471,42 @@ def drive_pose(
     it, and compiled code (numba) calls it as it stands: plain arithmetic and ``math``, the same
     operations in the same order as :func:`solve_drive_arrays`, so that the paths agree to
     rounding. It takes the carrier angle's cosine and sine, not the angle, so that a caller
-    stepping a known angle by a small one can use the angle-sum identities; the mounting's are
-    the linkage's constants. Only cos/sin of the carrier, two square roots, atan2 twice and asin
+    stepping a known angle by a small one can use the angle-sum identities, and the linkage as
+    its :class:`DriveCoefficients` (``drive_coefficients``), so that no division repeats what
+    the lengths alone give. Only cos/sin of the carrier, two square roots, atan2 twice and asin
     once: every other sine and cosine follows from angle-sum identities, and compiled callers
-    that use neither angle skip the inverse functions. Not checked: a linkage that does not
-    assemble gives NaN (raises on Python floats, where ``math`` refuses). A plain tuple, in the
-    order of :data:`DRIVE_POSE_FIELDS`: the float path runs per message, where building a named
-    tuple would cost a tenth of the solve.
+    that use neither angle skip the inverse functions (or take them from asin's and atan2's
+    arguments, returned too). Not checked: a linkage that does not assemble gives NaN (raises on
+    Python floats, where ``math`` refuses). A plain tuple, in the order of
+    :data:`DRIVE_POSE_FIELDS`: the float path runs per message, where building a named tuple
+    would cost a tenth of the solve.
     """
-    os_, rs, pr = pivot_offset_m, rocker_link_m, crank_link_m
     op = cos_carrier * ring_radius_m
-    op_dot = sin_carrier * phi_dot * -ring_radius_m
+    op_dot = sin_carrier * phi_dot * minus_ring_radius_m
     # alpha = atan2(OS, OP), beta = asin K, theta2 = alpha + beta.
     op_squared = op * op
-    distance = math.sqrt(op_squared + os_**2)
-    k = (op_squared + (rs**2 + os_**2 - pr**2)) / distance * (0.5 / rs)
+    distance = math.sqrt(op_squared + offset_squared)
+    k = (op_squared + k_constant) / distance * half_inverse_rocker
     cos_alpha = op / distance
-    sin_alpha = os_ / distance
-    theta2 = math.atan2(os_, op) + math.asin(k)
+    sin_alpha = pivot_offset_m / distance
+    theta2 = math.atan2(pivot_offset_m, op) + math.asin(k)
     cos_beta = math.sqrt((1.0 - k) * (1.0 + k))
     sin2 = sin_alpha * cos_beta + cos_alpha * k
     cos2 = cos_alpha * cos_beta - sin_alpha * k
     # Joint R relative to P, scaled by 1/PR: (cos theta1, -sin theta1).
-    cos1 = cos2 * (rs / pr) + os_ / pr
-    sin1 = sin2 * (-rs / pr) + op * (1.0 / pr)
+    cos1 = cos2 * rocker_over_crank + offset_over_crank
+    sin1 = sin2 * minus_rocker_over_crank + op * inverse_crank
     theta1 = math.atan2(sin1, cos1)
     # sin(theta1 + theta2) vanishes only when PR and RS are collinear, which assembly excludes.
     rate = op_dot / (sin1 * cos2 + cos1 * sin2)
-    theta2_dot = rate * sin1 * (1.0 / rs)
-    theta1_dot = rate * sin2 * (1.0 / pr)
+    theta2_dot = rate * sin1 * inverse_rocker
+    theta1_dot = rate * sin2 * inverse_crank
     sin_fin = sin2 * cos_mounting - cos2 * sin_mounting
     cos_fin = cos2 * cos_mounting + sin2 * sin_mounting
     tip_y = sin_fin * tail_link_m
     return (
         op, op_dot, theta1, theta1_dot, theta2, theta2_dot, theta2 - theta2_mid,
-        cos_fin * tail_link_m + os_, tip_y, -(tip_y * theta2_dot),
-        cos_fin * theta2_dot * tail_link_m, theta2 - tail_mounting_rad, cos_fin, sin_fin,
+        cos_fin * tail_link_m + pivot_offset_m, tip_y, -(tip_y * theta2_dot),
+        cos_fin * theta2_dot * tail_link_m, theta2 - tail_mounting_rad, cos_fin, sin_fin, k, cos1,
+        sin1,
     )  # fmt: skip

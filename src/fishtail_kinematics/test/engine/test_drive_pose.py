@@ -7,7 +7,11 @@ import pytest
 
 from fishtail_kinematics.engine.geometry import OscillatoryGeometry, OscillatoryState
 from fishtail_kinematics.engine.mechanisms import OscillatoryTail
-from fishtail_kinematics.engine.oscillatory_tail import DRIVE_POSE_FIELDS, drive_pose
+from fishtail_kinematics.engine.oscillatory_tail import (
+    DRIVE_POSE_FIELDS,
+    drive_coefficients,
+    drive_pose,
+)
 
 TAILS = [
     OscillatoryTail(OscillatoryGeometry()),
@@ -20,16 +24,24 @@ TAILS = [
 def _pose(tail: OscillatoryTail, phi: float, phi_dot: float) -> tuple[float, ...]:
     c = tail.constants
     carrier = phi + c.phase_rad
-    return drive_pose(
-        math.cos(carrier), math.sin(carrier), phi_dot, c.ring_radius_m, c.crank_link_m,
-        c.rocker_link_m, c.tail_link_m, c.pivot_offset_m, c.theta2_mid, c.tail_mounting_rad,
-        math.cos(c.tail_mounting_rad), math.sin(c.tail_mounting_rad),
-    )  # fmt: skip
+    coefficients = (float(value) for value in drive_coefficients(c))
+    return drive_pose(math.cos(carrier), math.sin(carrier), phi_dot, *coefficients)
 
 
-def test_its_fields_are_the_states_and_the_tail_links_direction():
+#: What the formula gives besides the state's fields: the tail link's direction, and the
+#: arguments of asin and of theta1's atan2.
+EXTRA = ("cos_fin", "sin_fin", "sin_beta", "cos_theta1", "sin_theta1")
+
+
+def test_its_fields_are_the_states_and_the_arguments_of_its_inverse_functions():
     shared = [name for name in DRIVE_POSE_FIELDS if name in OscillatoryState._fields]
-    assert shared == [name for name in DRIVE_POSE_FIELDS if name not in ("cos_fin", "sin_fin")]
+    assert shared == [name for name in DRIVE_POSE_FIELDS if name not in EXTRA]
+    tail = TAILS[1]
+    pose = dict(zip(DRIVE_POSE_FIELDS, _pose(tail, 0.8, 3.0), strict=True))
+    alpha = math.atan2(tail.geometry.pivot_offset_m, pose["slider_position"])
+    assert pose["theta2"] == alpha + math.asin(pose["sin_beta"])
+    assert pose["theta1"] == math.atan2(pose["sin_theta1"], pose["cos_theta1"])
+    assert math.hypot(pose["cos_theta1"], pose["sin_theta1"]) == pytest.approx(1.0, abs=1e-14)
 
 
 @pytest.mark.parametrize("tail", TAILS, ids=["report", "phase", "non-monotone", "shifted"])
@@ -40,6 +52,8 @@ def test_the_formula_gives_the_array_paths_numbers(tail):
     for index, phi in enumerate(angles):
         pose = _pose(tail, float(phi), 2.5)
         for name, value in zip(DRIVE_POSE_FIELDS, pose, strict=True):
+            if name not in arrays:
+                continue
             # The same operations in the same order: equal but for numpy's and libm's last bits.
             assert value == pytest.approx(float(arrays[name][index]), rel=1e-14, abs=1e-15), name
 

@@ -29,21 +29,25 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from fishtail_common.compiled_cache import key_cache_to_sources
 from fishtail_kinematics.engine import oscillatory_tail
 from fishtail_kinematics.engine.drive_batch import OscillatoryBatch
-from fishtail_kinematics.engine.oscillatory_tail import drive_pose
+from fishtail_kinematics.engine.oscillatory_tail import (
+    DriveCoefficients,
+    drive_coefficients,
+    drive_pose,
+)
 from fishtail_plant.fish import figures, formulas, tail_drive
 from fishtail_plant.fish.fish import FishParameters, FloatArray
-from fishtail_plant.fish.fused import AVAILABLE, Compiler, _identity, key_cache_to_sources
+from fishtail_plant.fish.fused import AVAILABLE, Compiler, _identity
 
 if AVAILABLE:
     import numba
 
-#: Columns of the linkage table the kernel reads (one row per design).
-LINKAGE_COLUMNS = (
-    "ring_radius_m", "crank_link_m", "rocker_link_m", "tail_link_m", "pivot_offset_m",
-    "phase_rad", "theta2_mid", "tail_mounting_rad", "cos_mounting", "sin_mounting",
-)  # fmt: skip
+#: Columns of the linkage table the kernel reads (one row per design): the engine's
+#: coefficients, in the order drive_pose takes them, then the carrier phase.
+LINKAGE_COLUMNS = (*DriveCoefficients._fields, "phase_rad")
+_PHASE = len(DriveCoefficients._fields)
 #: Columns of the fish table the kernel reads (one row per design).
 FISH_COLUMNS = (
     "fin_added_mass_per_length_kg_m", "tail_origin_offset_m", "fin_chord_m",
@@ -118,8 +122,8 @@ def _beat(
     # Two loops, so that each is straight code that LLVM vectorises.
     for k in range(tip.shape[1]):
         pose = _drive_pose(
-            cos_carrier[k], sin_carrier[k], omega, c[0], c[1], c[2], c[3], c[4], c[6], c[7], c[8],
-            c[9],
+            cos_carrier[k], sin_carrier[k], omega, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7],
+            c[8], c[9], c[10], c[11], c[12], c[13], c[14], c[15],
         )  # fmt: skip
         tip[0, k], tip[1, k], tip[2, k], tip[3, k] = pose[7], pose[8], pose[9], pose[10]
         tip[4, k], tip[5, k], tip[6, k] = pose[12], pose[13], pose[5]
@@ -129,12 +133,14 @@ def _beat(
     for k in range(tip.shape[1]):
         cos_k, sin_k = cos_carrier[k], sin_carrier[k]
         ahead = _drive_pose(
-            cos_k * cos_step - sin_k * sin_step, sin_k * cos_step + cos_k * sin_step,
-            1.0, c[0], c[1], c[2], c[3], c[4], c[6], c[7], c[8], c[9],
+            cos_k * cos_step - sin_k * sin_step, sin_k * cos_step + cos_k * sin_step, 1.0,
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13],
+            c[14], c[15],
         )  # fmt: skip
         behind = _drive_pose(
-            cos_k * cos_step + sin_k * sin_step, sin_k * cos_step - cos_k * sin_step,
-            1.0, c[0], c[1], c[2], c[3], c[4], c[6], c[7], c[8], c[9],
+            cos_k * cos_step + sin_k * sin_step, sin_k * cos_step - cos_k * sin_step, 1.0,
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13],
+            c[14], c[15],
         )  # fmt: skip
         tip[7, k] = (ahead[9] - behind[9]) * scale * squared
         tip[8, k] = (ahead[10] - behind[10]) * scale * squared
@@ -279,14 +285,14 @@ def _held_cycles(
     last_omega = last_phase = math.nan
     for design in range(linkages.shape[0]):
         c, f, omega = linkages[design], fish[design], carrier_speed[design]
-        if not (omega == last_omega and c[5] == last_phase):
+        if not (omega == last_omega and c[_PHASE] == last_phase):
             # The samples' carrier angles as constant_carrier_speed and the batch make them,
             # (k / samples) * (2 pi / Omega) * Omega + psi; shared by designs that share both.
             period = 2.0 * math.pi / omega
             for k in range(samples):
-                carrier = omega * (k / samples * period) + c[5]
+                carrier = omega * (k / samples * period) + c[_PHASE]
                 cos_carrier[k], sin_carrier[k] = math.cos(carrier), math.sin(carrier)
-            last_omega, last_phase = omega, c[5]
+            last_omega, last_phase = omega, c[_PHASE]
         _beat(c, omega, cos_carrier, sin_carrier, has_chord, tip)
         lowest, highest = tip[1, 0], tip[1, 0]
         for k in range(1, samples):
@@ -334,12 +340,7 @@ def held_cycles(
     speed = np.array(np.broadcast_to(np.asarray(carrier_speed_rad_s, dtype=float), count))
     tail_drive.constant_carrier_speed(speed)  # refuses what the numpy path refuses
     c = batch.constants
-    linkages = _table(
-        [c.ring_radius_m, c.crank_link_m, c.rocker_link_m, c.tail_link_m, c.pivot_offset_m,
-         c.phase_rad, c.theta2_mid, c.tail_mounting_rad, np.cos(c.tail_mounting_rad),
-         np.sin(c.tail_mounting_rad)],
-        count,
-    )  # fmt: skip
+    linkages = _table([*drive_coefficients(c), c.phase_rad], count)
     parameters = _table([getattr(fish, name) for name in FISH_COLUMNS], count)
     has_chord = bool(np.any(np.asarray(fish.fin_chord_m) > 0.0))
     result = HeldCycles(np.empty(count), np.empty(count), np.empty((samples, count)),

@@ -8,25 +8,23 @@ and the fallback: docs/swimming-dynamics.md ("Integrator").
 
 Compiling takes seconds (tens on a busy machine); numba caches the result on disk, beside this
 file (or under ``NUMBA_CACHE_DIR``), keyed to the source of the formulas as well as this file's
-(:func:`key_cache_to_sources`). :func:`compile_loop` compiles, or loads, every specialisation
-the simulator node and ``fishtail-swim`` use: ``make setup`` runs it last
-(``python -m fishtail_plant.fish.fused``, which prepares the synthesis' cycle kernel too), so
-that no later run waits for the compiler.
+(:mod:`fishtail_common.compiled_cache`). :func:`compile_loop` compiles, or loads, every
+specialisation the simulator node and ``fishtail-swim`` use: ``make setup`` runs it last
+(``python -m fishtail_plant.fish.fused``, which prepares the suite's other compiled code too),
+so that no later run waits for the compiler.
 """
 
 from __future__ import annotations
 
-import hashlib
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
-from types import ModuleType
 from typing import Any, NamedTuple, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_common.compiled_cache import key_cache_to_sources
 from fishtail_plant.fish import formulas
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.fish.model import STATE_SIZE, SwimModel
@@ -89,25 +87,6 @@ Compiler: TypeAlias = Callable[[Callable[..., Any]], Callable[..., Any]]
 
 def _identity(function: Callable[..., Any]) -> Callable[..., Any]:
     return function
-
-
-def key_cache_to_sources(dispatcher: Any, *modules: ModuleType) -> None:
-    """Key numba's disk cache of ``dispatcher`` to the source of ``modules`` too.
-
-    numba checks a cached function against its own file's size and time only, so code that
-    compiles functions of other files (formulas.py into the loop) would load stale machine code
-    after those files changed. The index's stamp gets a hash of their sources: a change to any
-    of them makes the cache stale, and the next call compiles. Nothing without numba, or with a
-    numba whose cache internals differ (then as numba does it).
-    """
-    cache_file: Any = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
-    stamp = getattr(cache_file, "_source_stamp", None)
-    if stamp is None:
-        return
-    digest = hashlib.sha256()
-    for module in modules:
-        digest.update(Path(str(module.__file__)).read_bytes())
-    cache_file._source_stamp = (stamp, digest.hexdigest())
 
 
 # Module-level functions of module-level functions: what numba can cache on disk.
@@ -304,8 +283,9 @@ def compile_loop(batches: tuple[str, ...] | None = None) -> LoopPreparation:
 def main() -> int:
     """``python -m fishtail_plant.fish.fused``: compile (or load) the loop, and say how long.
 
-    Then the synthesis' cycle kernel (:mod:`~fishtail_plant.fish.cycle_kernel`), the suite's
-    other compiled code, so that ``make setup`` prepares both; its line comes last.
+    Then the suite's other compiled code, the engine's batch pass
+    (:mod:`~fishtail_kinematics.engine.drive_pass`) and the synthesis' cycle kernel
+    (:mod:`~fishtail_plant.fish.cycle_kernel`), so that ``make setup`` prepares them all.
     """
     if not loop_signatures():
         print("swimming integrator: not compiled (numba is not installed, or NUMBA_DISABLE_JIT)")
@@ -319,14 +299,20 @@ def main() -> int:
         f"({done.compiled} specialisations compiled, {done.loaded} loaded from the cache)"
     )
     # Imported here: the kernel's module imports this one.
+    from fishtail_kinematics.engine import drive_pass
     from fishtail_plant.fish import cycle_kernel
 
-    verb = "loading" if cycle_kernel.is_cached() else "compiling"
-    print(f"{verb} the cycle kernel (numba) ...", flush=True)
-    kernel = cycle_kernel.compile_kernel()
-    if kernel is not None:
-        how = "compiled" if kernel.compiled else "loaded from the cache"
-        print(f"{verb} the cycle kernel ... took {kernel.seconds:.1f} s ({how})")
+    others: tuple[tuple[str, Callable[[], bool | None], Callable[[], Any]], ...] = (
+        ("the engine's batch pass", drive_pass.is_cached, drive_pass.compile_pass),
+        ("the cycle kernel", cycle_kernel.is_cached, cycle_kernel.compile_kernel),
+    )
+    for name, current, prepare in others:
+        verb = "loading" if current() else "compiling"
+        print(f"{verb} {name} (numba) ...", flush=True)
+        prepared = prepare()
+        if prepared is not None:
+            how = "compiled" if prepared.compiled else "loaded from the cache"
+            print(f"{verb} {name} ... took {prepared.seconds:.1f} s ({how})")
     return 0
 
 

@@ -117,7 +117,7 @@ _USER = textwrap.dedent(
     """
     import numba
     import formula
-    from fishtail_plant.fish.fused import key_cache_to_sources
+    from fishtail_common.compiled_cache import key_cache_to_sources
 
     _scale = numba.njit(formula.scale)
 

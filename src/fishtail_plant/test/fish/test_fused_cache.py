@@ -2,8 +2,8 @@
 
 Each check runs in fresh interpreters with numba's cache in a temporary directory: one runs
 ``python -m fishtail_plant.fish.fused``, the next does what the simulator node and
-``fishtail-swim`` do, and what the synthesis' search tier does with the cycle kernel, and counts
-the compilations (numba's cache misses).
+``fishtail-swim`` do, and what the synthesis' search tier does with the cycle kernel and the
+engine's batch pass, and counts the compilations (numba's cache misses).
 """
 
 from __future__ import annotations
@@ -60,6 +60,10 @@ USES = textwrap.dedent(
     batch = OscillatoryBatch(np.array([0.1, 0.05]), 0.1, 0.233926, 0.15, 0.2)
     assert cycle_kernel.held_cycles(batch, FishParameters(), np.ones(2), 64) is not None
     print("kernel compiled", sum(cycle_kernel._KERNEL.stats.cache_misses.values()))
+    from fishtail_kinematics.engine import drive_pass
+
+    batch.solve(np.linspace(0.0, 6.0, 64)[:, None], 1.0)  # the stroke's solve
+    print("pass compiled", sum(drive_pass.compiled_pass().stats.cache_misses.values()))
     """
 )
 
@@ -88,10 +92,12 @@ def test_after_compile_loop_nothing_compiles(tmp_path):
     assert "\ncompiled 0\n" in uses, uses
     assert "kernel cached before True" in uses, uses
     assert "kernel compiled 0" in uses, uses
+    assert "pass compiled 0" in uses, uses
     again = run(["-m", "fishtail_plant.fish.fused"], cache)
     assert again.startswith("loading the swimming integrator"), again
     assert "(0 specialisations compiled, 2 loaded from the cache)" in again, again
     assert "loading the cycle kernel ... took" in again and "(loaded from the cache)" in again
+    assert "loading the engine's batch pass ... took" in again
 
 
 def test_without_compile_loop_the_uses_compile(tmp_path):
@@ -101,3 +107,4 @@ def test_without_compile_loop_the_uses_compile(tmp_path):
     assert "\ncompiled 0\n" not in uses, uses
     assert "kernel cached before False" in uses, uses
     assert "kernel compiled 1" in uses, uses
+    assert "pass compiled 1" in uses, uses
