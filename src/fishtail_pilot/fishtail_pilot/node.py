@@ -121,6 +121,8 @@ class PilotNode(SuiteNodeBase):
         # something to move (manual commands beside it stay in charge).
         self.sent: PilotCommand = self.pilot.command
         self.refusals: list[str] = []
+        #: The latest refusal logged, until a command or goal is accepted.
+        self.last_refusal: str | None = None
         self.odometry_lost = False
         self.dropped_reported = 0
         self.profile_message = ProfileMessage()
@@ -181,7 +183,11 @@ class PilotNode(SuiteNodeBase):
 
     def _refuse(self, reason: str) -> None:
         self.refusals.append(reason)
-        self.get_logger().warning(reason, throttle_duration_sec=2.0)
+        # The same refusal again (fishtail-run sends its goal every second) goes to
+        # /diagnostics, not to the log a line every few seconds.
+        if reason != self.last_refusal:
+            self.get_logger().warning(reason, throttle_duration_sec=2.0)
+        self.last_refusal = reason
 
     def _on_cmd_vel(self, message: Twist) -> None:
         reason = self.pilot.set_velocity(float(message.linear.x), float(message.angular.z))
@@ -189,6 +195,7 @@ class PilotNode(SuiteNodeBase):
             self._refuse(reason)
             return
         self.last_cmd_ns = self._now_ns()
+        self.last_refusal = None
 
     def _on_goal(self, message: PoseStamped) -> None:
         frame = message.header.frame_id
@@ -205,6 +212,7 @@ class PilotNode(SuiteNodeBase):
         if reason is not None:
             self._refuse(reason)
             return
+        self.last_refusal = None
         # Throttled: a burst of goals (a script, a stuck button) does not flood the log; the
         # latest goal is always on /diagnostics.
         self.get_logger().info(
