@@ -38,36 +38,51 @@ PASS_FIELDS = (
 #: Those the caller does not keep: the pass's scratch arrays.
 SCRATCH_FIELDS = ("sin_beta", "cos_theta1", "sin_theta1")
 
+#: Scratch arrays :func:`solve_block` works in: those, and the carrier's angle, its cosine and
+#: the carrier speed where the linkages do not share them.
+SCRATCH = len(SCRATCH_FIELDS) + 3
+
 _loaded: dict[str, Any] = {}
 
 
-def compiled_pass() -> Any:
-    """The compiled pass (numba's dispatcher), or None without numba or with NUMBA_DISABLE_JIT.
+class Passes(NamedTuple):
+    """The compiled passes (numba's dispatchers).
 
-    numba is imported on the first call (the pass itself is compiled, or loaded from numba's
-    cache, on its first use).
+    ``shared``: angles and speeds shared by the linkages, one of each a row; ``own``: an angle and
+    a speed for every linkage and row.
     """
-    if "pass" not in _loaded:
+
+    shared: Any
+    own: Any
+
+
+def compiled_pass() -> Passes | None:
+    """The compiled passes, or None without numba or with NUMBA_DISABLE_JIT.
+
+    numba is imported on the first call (each pass is compiled, or loaded from numba's cache,
+    on its first use).
+    """
+    if "passes" not in _loaded:
         try:
             module = importlib.import_module("fishtail_kinematics.engine.drive_pass_numba")
         except ImportError:  # pragma: no cover - exercised where numba is not installed
-            _loaded["pass"] = None
+            _loaded["passes"] = None
         else:
-            rates = module.RATES
-            _loaded["pass"] = rates if hasattr(rates, "compile") else None
-    return _loaded["pass"]
+            built = Passes(module.RATES_SHARED, module.RATES_OWN)
+            _loaded["passes"] = built if hasattr(built.shared, "compile") else None
+    passes: Passes | None = _loaded["passes"]
+    return passes
 
 
-def pass_signature() -> tuple[Any, ...] | None:
-    """The argument types :func:`solve_block` calls the pass with (None without numba)."""
-    dispatcher = compiled_pass()
-    if dispatcher is None:
+def pass_signatures() -> Passes | None:
+    """The argument types :func:`solve_block` calls each pass with (None without numba)."""
+    if compiled_pass() is None:
         return None
     types: Any = importlib.import_module("numba").types
     table = types.Array(types.float64, 2, "C")
-    given = types.Array(types.float64, 2, "A", readonly=True)
-    written = types.Array(types.float64, 2, "C")
-    return (table, given, given, given, *(written,) * len(PASS_FIELDS))
+    rows, block = types.Array(types.float64, 1, "C"), types.Array(types.float64, 2, "C")
+    written = (block,) * len(PASS_FIELDS)
+    return Passes((table, rows, rows, rows, *written), (table, block, block, block, *written))
 
 
 class PassPreparation(NamedTuple):
@@ -77,32 +92,36 @@ class PassPreparation(NamedTuple):
     compiled: bool
 
 
+def _misses(passes: Passes) -> int:
+    return sum(sum(dispatcher.stats.cache_misses.values()) for dispatcher in passes)
+
+
 def compile_pass() -> PassPreparation | None:
-    """Compile the pass, or load it from numba's cache (None without numba)."""
-    signature = pass_signature()
-    if signature is None:
+    """Compile both passes, or load them from numba's cache (None without numba)."""
+    passes, signatures = compiled_pass(), pass_signatures()
+    if passes is None or signatures is None:
         return None
-    dispatcher = compiled_pass()
     started = time.monotonic()
-    before = sum(dispatcher.stats.cache_misses.values())
-    dispatcher.compile(signature)
-    compiled = sum(dispatcher.stats.cache_misses.values()) > before
-    return PassPreparation(time.monotonic() - started, compiled)
+    before = _misses(passes)
+    for dispatcher, signature in zip(passes, signatures, strict=True):
+        dispatcher.compile(signature)
+    return PassPreparation(time.monotonic() - started, _misses(passes) > before)
 
 
 def is_cached() -> bool | None:
-    """Whether numba's cache holds the current compiled pass (None: cannot tell, or no numba).
+    """Whether numba's cache holds both current passes (None: cannot tell, or no numba).
 
-    Read from the cache's index without compiling or loading anything.
+    Read from the caches' indexes without compiling or loading anything.
     """
-    signature = pass_signature()
-    if signature is None:
+    passes, signatures = compiled_pass(), pass_signatures()
+    if passes is None or signatures is None:
         return None
-    dispatcher = compiled_pass()
     try:
-        cache = dispatcher._cache
-        key = cache._index_key(signature, dispatcher.targetctx.codegen())
-        return bool(key in cache._cache_file._load_index())
+        return all(
+            dispatcher._cache._index_key(signature, dispatcher.targetctx.codegen())
+            in dispatcher._cache._cache_file._load_index()
+            for dispatcher, signature in zip(passes, signatures, strict=True)
+        )
     except Exception:  # noqa: BLE001 - numba internals: unknown rather than wrong
         return None
 
@@ -116,7 +135,7 @@ def coefficient_table(coefficients: DriveCoefficients, count: int) -> FloatArray
 
 
 def solve_block(
-    dispatcher: Any,
+    passes: Passes,
     c: DriveConstants,
     table: FloatArray,
     phi: FloatArray,
@@ -128,21 +147,29 @@ def solve_block(
 
     ``phi`` and ``phi_dot`` are (rows, 1) or (rows, N); ``out`` holds every field of
     :data:`~.oscillatory_tail.DRIVE_ARRAY_FIELDS` but ``fin_angle`` where the tail link is
-    mounted at mid-swing (it is theta3 then); ``scratch``, three arrays of the block's shape.
-    Where the linkages share their carrier phase, the carrier's cosine and sine are taken once
-    an angle, as on the numpy path.
+    mounted at mid-swing (it is theta3 then); ``scratch``, :data:`SCRATCH` arrays of the block's
+    shape. Where the linkages share their carrier phase and the angles and speeds, the carrier's
+    cosine and sine are taken once an angle, as on the numpy path.
     """
-    shape = out["slider_position"].shape
     phase = oscillatory_tail.shared_value(c.phase_rad)
-    carrier = np.add(phi, phase)
-    cos_carrier = np.broadcast_to(np.cos(carrier), shape)
-    sin_carrier = np.broadcast_to(np.sin(carrier, out=carrier), shape)
-    sin_beta, cos1, sin1 = scratch
+    sin_beta, cos1, sin1, carrier_work, cos_work, speed_work = scratch
     written = [out[name] for name in PASS_FIELDS if name not in SCRATCH_FIELDS]
-    dispatcher(
-        table, cos_carrier, sin_carrier, np.broadcast_to(phi_dot, shape), *written,
-        sin_beta, cos1, sin1,
-    )  # fmt: skip
+    if phi.shape[-1] == 1 and phi_dot.shape[-1] == 1 and np.ndim(phase) == 0:
+        carrier = (phi + phase).reshape(-1)
+        cos_carrier = np.cos(carrier)
+        speed = np.array(phi_dot.reshape(-1), dtype=float)
+        passes.shared(
+            table, cos_carrier, np.sin(carrier, out=carrier), speed, *written, sin_beta, cos1,
+            sin1,
+        )  # fmt: skip
+    else:
+        carrier = np.add(phi, phase, out=carrier_work)
+        cos_carrier = np.cos(carrier, out=cos_work)
+        np.copyto(speed_work, phi_dot)
+        passes.own(
+            table, cos_carrier, np.sin(carrier, out=carrier), speed_work, *written, sin_beta,
+            cos1, sin1,
+        )  # fmt: skip
     # theta2 = atan2(OS, OP) + asin K and theta1 = atan2(sin theta1, cos theta1), as the numpy
     # path forms them.
     theta2 = np.arctan2(c.pivot_offset_m, out["slider_position"], out=out["theta2"])

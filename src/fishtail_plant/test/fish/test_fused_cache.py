@@ -63,7 +63,8 @@ USES = textwrap.dedent(
     from fishtail_kinematics.engine import drive_pass
 
     batch.solve(np.linspace(0.0, 6.0, 64)[:, None], 1.0)  # the stroke's solve
-    print("pass compiled", sum(drive_pass.compiled_pass().stats.cache_misses.values()))
+    passes = drive_pass.compiled_pass()
+    print("pass compiled", sum(sum(p.stats.cache_misses.values()) for p in passes))
     """
 )
 
