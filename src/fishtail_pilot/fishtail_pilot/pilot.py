@@ -415,6 +415,15 @@ class Pilot:
             # Turning towards it would circle the goal for ever: swim straight on until the
             # goal lies outside the tightest circle on that side, then turn.
             error = 0.0
+        elif settings.heading_gain_per_beat > 0.0:
+            # Near the goal the heading gain alone turns the fish too little: the steady turn
+            # through the goal, 2 sin(error) / distance a metre, grows as the distance shrinks,
+            # and a fish that turns less passes the goal on the outside, to loop back to it.
+            # So the pilot asks for that turn when it is the larger.
+            through = 2.0 * math.sin(error) * settings.speed_per_beat_m / distance
+            needed = through / settings.heading_gain_per_beat
+            if abs(needed) > abs(error):
+                error = needed
         # The control law compares the reference with the mean heading.
         self._heading_reference = self.mean_heading_rad + error
 
