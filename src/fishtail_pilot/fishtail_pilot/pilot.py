@@ -37,12 +37,13 @@ def goal_distance_text(distance_m: float) -> str:
 
 
 def wrap_angle(angle_rad: float) -> float:
-    """``angle_rad`` brought into [-pi, pi).
+    """``angle_rad`` brought into (-pi, pi]: the turn the short way, left at exactly half a turn.
 
-    >>> round(wrap_angle(3 * math.pi / 2), 6)
-    -1.570796
+    >>> round(wrap_angle(3 * math.pi / 2), 6), wrap_angle(-math.pi) == math.pi
+    (-1.570796, True)
     """
-    return (angle_rad + math.pi) % TWO_PI - math.pi
+    wrapped = (angle_rad + math.pi) % TWO_PI - math.pi
+    return math.pi if wrapped == -math.pi else wrapped
 
 
 class BeatAverage:

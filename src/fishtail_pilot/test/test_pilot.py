@@ -42,6 +42,8 @@ def test_wrap_angle_keeps_angles_within_half_a_turn():
     assert wrap_angle(0.0) == 0.0
     assert wrap_angle(2 * math.pi + 0.1) == pytest.approx(0.1)
     assert wrap_angle(-math.pi - 0.1) == pytest.approx(math.pi - 0.1)
+    # Half a turn either way is +pi: a goal straight behind is turned to the left.
+    assert wrap_angle(math.pi) == wrap_angle(-math.pi) == math.pi
 
 
 def test_beat_average_removes_a_whole_period_of_oscillation():
