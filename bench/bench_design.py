@@ -1,0 +1,266 @@
+"""Synthesis throughput: the search tier of mechanism 1, the engine's batch solve, sweeps, a run.
+
+Prints figures only; targets: the search tier >= 20 000 designs/s of mechanism 1 on one core
+(a design: its linkage solved over a beat and its balance; compiled kernel), the engine's batch
+solve <= 1.3x its transcendental floor (the cos/sin/sqrt/atan2/asin calls on the same samples),
+a sweep on two Dask workers >= 1.7x one core. Then the time of a full run of
+config/design/report-fish.yaml (the search, the verified front, the files). The problem is
+config/design/report-fish.yaml, 128 samples a beat. Run with `make bench`; ``--quick``: fewer
+designs in the sweeps and no full run.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from fishtail_design.evaluation import evaluate_rows
+from fishtail_design.executors import DaskExecutor, InProcessExecutor
+from fishtail_design.linkages import OscillatoryLinkages
+from fishtail_design.performance import performance
+from fishtail_design.problem import Problem, read_problem
+from fishtail_design.sweep import latin_hypercube, sweep
+from fishtail_design.variables import CARRIER_SPEED, GEAR_RATIO, GEARBOX_EFFICIENCY
+from fishtail_kinematics.engine.blocks import BLOCK_SAMPLES, block_slices
+from fishtail_plant.fish import cycle_kernel
+from fishtail_plant.motor.duty import MotorConstants
+from measure import ROOT, best_of, pin_to_one_core, verdict
+
+PROBLEM = ROOT / "config" / "design" / "report-fish.yaml"
+POPULATION = 2000
+SWEEP_DESIGNS = 1_000_000
+QUICK_SWEEP_DESIGNS = 100_000
+TARGET_DESIGNS_S = 20_000
+SWEEP_CHUNK = 16384
+SWEEP_BATCH = 8192
+
+
+def designs(problem: Problem, count: int, seed: int = 1) -> np.ndarray:
+    """``count`` designs of the problem's space (the optimiser's rows), a Latin hypercube."""
+    return latin_hypercube(problem.space, count, seed)
+
+
+def search_tier_rate(problem: Problem, rows: np.ndarray, repeats: int = 5) -> float:
+    """Designs per second of evaluate_rows (the search tier: stroke, performance, margins)."""
+    evaluate_rows(problem, rows[:8])  # loads the compiled kernel, if any
+    return rows.shape[0] / best_of(lambda: evaluate_rows(problem, rows), repeats)
+
+
+def numpy_tier_rate(rows: int) -> float:
+    """The search tier's designs/s without the compiler (a process with NUMBA_DISABLE_JIT)."""
+    environment = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
+    completed = subprocess.run(
+        [sys.executable, __file__, "--numpy-tier", str(rows)],
+        env=environment, capture_output=True, text=True, check=True, timeout=1800,
+    )  # fmt: skip
+    return float(completed.stdout.split()[-1])
+
+
+def performance_rates(problem: Problem, rows: np.ndarray) -> tuple[float, float, float]:
+    """Designs/s of performance() compiled and by numpy, and their largest relative difference."""
+    values = problem.space.decode(rows)
+    linkages = OscillatoryLinkages(values)
+    motor = MotorConstants.of(
+        problem.motor.parameters(problem.motor.default_gear_ratio),
+        values[GEAR_RATIO], values[GEARBOX_EFFICIENCY],
+    )  # fmt: skip
+    speed = values[CARRIER_SPEED]
+    samples = problem.search.samples_per_beat
+
+    def run(compiled: bool):
+        return performance(linkages, problem.fish, motor, speed, samples, compiled=compiled)
+
+    compiled_s = best_of(lambda: run(True), 5)
+    numpy_s = best_of(lambda: run(False), 2)
+    difference = 0.0
+    for fast, slow in zip(run(True), run(False), strict=True):
+        finite = np.isfinite(slow) & (slow != 0.0)
+        if finite.any():
+            relative = np.abs(np.asarray(fast)[finite] / slow[finite] - 1.0).max()
+            difference = max(difference, float(relative))
+    count = rows.shape[0]
+    return count / compiled_s, count / numpy_s, difference
+
+
+def floor_calls(angles: np.ndarray) -> Callable[[], None]:
+    """The calls mechanism 1's solve must make on ``angles``, at their cheapest.
+
+    cos and sin of the carrier angle, sqrt(OP² + OS²), atan2(OS, OP), asin K, sqrt(1 - K²) and
+    atan2 for theta1, a block at a time into buffers that stay in the cache (as
+    bench_kinematics.py measures the single tail's floor).
+    """
+    flat = angles.reshape(-1)
+    a, b, c = np.empty(BLOCK_SAMPLES), np.empty(BLOCK_SAMPLES), np.empty(BLOCK_SAMPLES)
+    ratio = np.linspace(-0.9, 0.9, BLOCK_SAMPLES)
+    positive = np.linspace(0.01, 1.0, BLOCK_SAMPLES)
+
+    def calls() -> None:
+        for block in block_slices(flat.size):
+            x, n = flat[block], block.stop - block.start
+            np.cos(x, out=a[:n])
+            np.sin(x, out=b[:n])
+            np.sqrt(positive[:n], out=c[:n])
+            np.arctan2(0.2, a[:n], out=c[:n])
+            np.arcsin(ratio[:n], out=c[:n])
+            np.sqrt(positive[:n], out=c[:n])
+            np.arctan2(b[:n], a[:n], out=c[:n])
+
+    return calls
+
+
+def paired(first: Callable[[], object], second: Callable[[], object]) -> tuple[float, float]:
+    """Best times of two functions timed in turn (the machine's load shifts between runs)."""
+    times = [math.inf, math.inf]
+    for _ in range(9):
+        for index, function in enumerate((first, second)):
+            times[index] = min(times[index], best_of(function, 1))
+    return times[0], times[1]
+
+
+def engine_against_floor(problem: Problem, rows: np.ndarray) -> None:
+    """The engine's batch solve of the population over a beat, against its floor.
+
+    The beat's angles shared by every linkage, (samples, 1), as the synthesis' stroke asks; then
+    an angle of its own for every linkage and sample, (samples, N); compiled and by numpy. Each
+    solve's result replaces the last (a steady pipeline: fresh arrays, memory reused). The floor
+    counts every call on every angle, though shared angles need cos and sin once an angle.
+    """
+    batch = OscillatoryLinkages(problem.space.decode(rows)).batch
+    samples = problem.search.samples_per_beat
+    shared = (np.arange(samples) * (2.0 * math.pi / samples))[:, None]
+    own = np.ascontiguousarray(np.broadcast_to(shared, (samples, batch.size)))
+    floor = floor_calls(own)
+    count = own.size
+    print(
+        f"engine batch solve, {batch.size} linkages x {samples} angles, against the "
+        f"transcendental floor (cos, sin, 2 sqrt, 2 atan2, asin on every angle):"
+    )
+    kept: list[object] = [None]
+    for compiled in (True, False):
+        batch.compiled = compiled
+        for name, angles in (("shared angles", shared), ("own angles", own)):
+
+            def solve(angles: np.ndarray = angles) -> None:
+                kept[0] = batch.solve(angles, 1.0)
+
+            solve()
+            floor_s, solve_s = paired(floor, solve)
+            target = f" (target <= 1.3x: {verdict(solve_s <= 1.3 * floor_s)})" if compiled else ""
+            print(
+                f"  {'compiled' if compiled else 'numpy'}, {name}: "
+                f"{solve_s / count * 1e9:.1f} ns/angle, floor {floor_s / count * 1e9:.1f} ns/angle:"
+                f" {solve_s / floor_s:.2f}x{target}"
+            )
+    batch.compiled = True
+
+
+def sweep_seconds(
+    problem: Problem, count: int, executor: object, folder: Path, batch_size: int = SWEEP_BATCH
+) -> float:
+    """Wall seconds of a sweep of ``count`` Latin-hypercube designs to a Parquet file.
+
+    Chunks of :data:`SWEEP_CHUNK` designs in tasks of :data:`SWEEP_BATCH`: with the compiled
+    kernel the default task of 64 designs takes a few milliseconds, less than a Dask task's own
+    overhead, and two tasks a chunk keep two workers busy. Parquet: writing CSV costs as much
+    as scoring.
+    """
+    points = designs(problem, count, seed=2)
+    started = time.perf_counter()
+    sweep(problem, points, folder / "sweep.parquet", executor,  # type: ignore[arg-type]
+          chunk_size=SWEEP_CHUNK, batch_size=batch_size)  # fmt: skip
+    return time.perf_counter() - started
+
+
+def sweeps(problem: Problem, count: int, all_cores: set[int]) -> None:
+    """A sweep on one core in this process, then on a local Dask cluster of two workers."""
+    with tempfile.TemporaryDirectory() as folder:
+        evaluate_rows(problem, designs(problem, 8))
+        one_s = sweep_seconds(problem, count, InProcessExecutor(), Path(folder))
+        print(
+            f"sweep of {count:,} designs (Parquet, chunks of {SWEEP_CHUNK}, tasks of "
+            f"{SWEEP_BATCH}), one core: {one_s:.1f} s ({count / one_s:,.0f}/s)"
+        )
+        try:
+            os.sched_setaffinity(0, all_cores)  # the workers inherit this process's cores
+        except (AttributeError, OSError):
+            pass
+        cores = len(os.sched_getaffinity(0))
+        with DaskExecutor(workers=2) as executor:
+            # A first small sweep in small tasks, so that both workers import fishtail and load
+            # the compiled code before the timed one.
+            sweep_seconds(problem, 512, executor, Path(folder), batch_size=64)
+            two_s = sweep_seconds(problem, count, executor, Path(folder))
+        pin_to_one_core()
+        print(
+            f"sweep of {count:,} designs, two Dask workers ({cores} cores allowed): "
+            f"{two_s:.1f} s ({count / two_s:,.0f}/s), {one_s / two_s:.2f}x one core "
+            f"(target >= 1.7x: {verdict(one_s / two_s >= 1.7)})"
+        )
+
+
+def full_run() -> None:
+    """fishtail-design on the report's problem, timed (search, verified front, files)."""
+    with tempfile.TemporaryDirectory() as folder:
+        started = time.perf_counter()
+        completed = subprocess.run(
+            ["fishtail-design", str(PROBLEM), "--output-dir", folder],
+            capture_output=True, text=True, check=False, timeout=7200,
+        )  # fmt: skip
+        seconds = time.perf_counter() - started
+        verified = Path(folder, "front.csv").is_file()
+    if completed.returncode != 0:
+        print(f"full run: fishtail-design failed ({completed.returncode}): "
+              f"{completed.stderr.strip().splitlines()[-1:]}")  # fmt: skip
+        return
+    print(
+        f"full run, fishtail-design {PROBLEM.relative_to(ROOT)} (population 100 x 50 "
+        f"generations, the front verified{', front.csv written' if verified else ''}): "
+        f"{seconds:.0f} s"
+    )
+
+
+def main() -> None:
+    """Print the figures."""
+    if sys.argv[1:2] == ["--numpy-tier"]:
+        pin_to_one_core()
+        problem = read_problem(PROBLEM)
+        print(search_tier_rate(problem, designs(problem, int(sys.argv[2])), repeats=2))
+        return
+    quick = "--quick" in sys.argv[1:]
+    all_cores = os.sched_getaffinity(0)
+    pinned = pin_to_one_core()
+    problem = read_problem(PROBLEM)
+    rows = designs(problem, POPULATION)
+    print(
+        f"design benchmark ({pinned}), {PROBLEM.relative_to(ROOT)}, population {POPULATION}, "
+        f"{problem.search.samples_per_beat} samples a beat; compiled kernel: "
+        f"{'yes' if cycle_kernel.kernel_signature() else 'no (numba missing)'}"
+    )
+    compiled_rate = search_tier_rate(problem, rows)
+    numpy_rate = numpy_tier_rate(POPULATION)
+    print(
+        f"search tier (evaluate_rows), mechanism 1, one core: {compiled_rate:,.0f} designs/s "
+        f"compiled, {numpy_rate:,.0f} designs/s numpy; {compiled_rate / numpy_rate:.0f}x "
+        f"(target >= {TARGET_DESIGNS_S:,}/s: {verdict(compiled_rate >= TARGET_DESIGNS_S)})"
+    )
+    fast, slow, difference = performance_rates(problem, rows)
+    print(
+        f"performance() alone: {fast:,.0f} designs/s compiled, {slow:,.0f} numpy "
+        f"({fast / slow:.0f}x); largest relative difference of a figure {difference:.1e}"
+    )
+    engine_against_floor(problem, rows)
+    sweeps(problem, QUICK_SWEEP_DESIGNS if quick else SWEEP_DESIGNS, all_cores)
+    if not quick:
+        full_run()
+
+
+if __name__ == "__main__":
+    main()
