@@ -133,7 +133,7 @@ class OscillatoryBatch:
         results = dict(zip(fields, block_of_results, strict=True))
         rows = {name: value.reshape(-1, self.size) for name, value in results.items()}
         angle_rows, velocity_rows = _rows(angle, shape), _rows(velocity, shape)
-        step = max(1, BLOCK_SAMPLES // self.size)
+        step = max(1, min(angle_rows.shape[0], BLOCK_SAMPLES // self.size))
         coefficients = drive_coefficients(c)
         if passes is not None:
             table = drive_pass.coefficient_table(coefficients, self.size)
