@@ -51,11 +51,12 @@ FloatArray = npt.NDArray[np.float64]
 #: What a batch function returns: an array or a NamedTuple of arrays, a row per design.
 R = TypeVar("R")
 
-#: The most designs in a task unless --batch-size says otherwise. A design takes 1 to 2 ms to
-#: evaluate (the search's cycle averages, on a 2-core machine), so that a task of 64 takes about
-#: 0.1 s: much more than a task's overhead (under a millisecond in a local pool, 10 to 20 ms on
-#: Dask), and the default population of 100 still makes two tasks.
-BATCH_SIZE = 64
+#: The most designs in a task unless --batch-size says otherwise. The compiled search tier
+#: scores a mechanism-1 design in some 50 to 80 µs (numpy's path, and mechanism 2, in 1 to 10
+#: ms), so that a task of 1024 takes 0.05 to 0.1 s: well above a task's overhead (under a
+#: millisecond in a local pool, 10 to 20 ms on Dask). A population of 100 is then one task: it
+#: is scored faster than it could be shipped; a sweep's chunks are many.
+BATCH_SIZE = 1024
 
 PROCESSES = ParameterSpec("processes", 2, "evaluate in N local processes", "", 1, 1024)
 WORKERS = ParameterSpec(

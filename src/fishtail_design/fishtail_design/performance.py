@@ -97,8 +97,11 @@ def performance(
         thrust = towed.push_n * speed**2
         load = towed.power_w
     else:
-        at_speed = towed_cycles(linkages, fish, speed, samples, compiled)
-        swim_speed = at_speed.speed_m_s
+        # A design without a speed (it does not assemble or never balances) runs at 1 rad/s
+        # for the batch's sake; its figures stay NaN.
+        usable = np.isfinite(speed) & (speed > 0.0)
+        at_speed = towed_cycles(linkages, fish, np.where(usable, speed, 1.0), samples, compiled)
+        swim_speed = np.where(usable, at_speed.speed_m_s, np.nan)
         thrust = at_speed.push_n
         load = at_speed.power_w / speed**3
     tail_power = load.mean(axis=0) * speed**3

@@ -187,7 +187,7 @@ def parse(*argv: str) -> argparse.Namespace:
 
 def test_the_options_name_the_executor_and_the_batch_size() -> None:
     arguments = parse()
-    assert arguments.batch_size == BATCH_SIZE == 64
+    assert arguments.batch_size == BATCH_SIZE == 1024
     with executor_from_arguments(arguments) as executor:
         assert isinstance(executor, InProcessExecutor) and executor.description == "in-process"
     arguments = parse("--processes", "3", "--batch-size", "64")

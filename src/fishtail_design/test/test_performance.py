@@ -101,3 +101,14 @@ def test_without_modulation_a_symmetric_tail_does_not_turn():
     assert np.abs(figures.turning_rad_per_beat).max() < 3e-3
     modulated = _figures([6.0, 6.0], turning=0.5, samples=64)
     assert np.all(modulated.turning_rad_per_beat > 0.01)
+
+
+def test_with_a_linear_drag_a_design_that_does_not_assemble_is_nan_not_an_error():
+    lengths = {name: np.array([getattr(GEOMETRIES[0], name), getattr(GEOMETRIES[0], name)])
+               for name in NAMES}  # fmt: skip
+    lengths["rocker_link_m"][1] = 0.05  # RS + PR cannot reach: it does not assemble
+    fish = dataclasses.replace(FISH, surge_linear_damping_kg_s=0.5)
+    motor = MotorConstants.of(MOTOR, np.full(2, 30.0), np.full(2, 0.76))
+    figures = performance(OscillatoryLinkages(lengths), fish, motor, np.full(2, math.nan), 64)
+    assert np.isfinite(figures.speed_m_s[0]) and figures.speed_m_s[0] > 0.0
+    assert np.isnan(figures.speed_m_s[1])
