@@ -22,8 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fishtail_design.dask_executor import DaskExecutor
 from fishtail_design.evaluation import evaluate_rows
-from fishtail_design.executors import DaskExecutor, InProcessExecutor
+from fishtail_design.executors import InProcessExecutor
 from fishtail_design.linkages import OscillatoryLinkages
 from fishtail_design.performance import performance
 from fishtail_design.problem import Problem, read_problem

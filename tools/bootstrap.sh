@@ -2,7 +2,7 @@
 # Set up the fishtail workspace from a fresh clone: .venv with the pinned ROS 2 Jazzy wheels, the
 # wheel CMake path fix, tf2_msgs (which the wheels lack) into .venv/interfaces,
 # `colcon build --symlink-install`, and the swimming simulator's numba loop and the synthesis' cycle
-# kernel compiled into their caches (python -m fishtail_plant.fish.fused), so that no later run
+# kernel compiled into their caches (python -m fishtail_plant.compiled), so that no later run
 # waits for the compiler. Idempotent; a second run with nothing changed takes about a second
 # (stamps keyed on hashes of what each step depends on).
 #
@@ -256,7 +256,7 @@ integrator_key() {
 # A subshell: the workspace environment must not leak into the rest of this script.
 integrator_compile() (
   # shellcheck disable=SC1091
-  source "$ROOT/tools/env.sh" >/dev/null && python -m fishtail_plant.fish.fused
+  source "$ROOT/tools/env.sh" >/dev/null && python -m fishtail_plant.compiled
 )
 
 if [ "$(cat "$STAMPS/integrator" 2>/dev/null)" = "$(integrator_key)" ]; then

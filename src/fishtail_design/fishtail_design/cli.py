@@ -24,12 +24,8 @@ import numpy as np
 from fishtail_common.command_line import OneLineErrorParser
 from fishtail_design.errors import DesignError
 from fishtail_design.evaluation import FIGURES
-from fishtail_design.executors import (
-    Executor,
-    add_executor_arguments,
-    evaluate_in_batches,
-    executor_from_arguments,
-)
+from fishtail_design.executor_options import add_executor_arguments, executor_from_arguments
+from fishtail_design.executors import Executor, evaluate_in_batches
 from fishtail_design.optimiser import (
     GenerationReport,
     SearchResult,

@@ -10,7 +10,7 @@ one, that takes a batch and returns an array or a NamedTuple of arrays with a ro
 travels to the other processes by pickling, as its module and name: every process that runs it,
 local or on another machine, must be able to import it, that is have the same fishtail install.
 
-The command line chooses with :func:`add_executor_arguments` and :func:`executor_from_arguments`:
+The command line chooses (:mod:`~fishtail_design.executor_options`):
 ``--processes N`` (:class:`LocalProcessExecutor`), ``--workers N`` (a local Dask cluster) or
 ``--scheduler tcp://HOST:PORT`` (an existing one, both
 :class:`~fishtail_design.dask_executor.DaskExecutor`), else
@@ -28,20 +28,16 @@ array([[ 0.,  2.],
 
 from __future__ import annotations
 
-import argparse
 import concurrent.futures
 import multiprocessing
 import signal
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from typing import TYPE_CHECKING, Protocol, Self, TypeVar, cast
-from urllib.parse import urlsplit
 
 import numpy as np
 import numpy.typing as npt
 
-from fishtail_common.command_line import add_parameter_options
-from fishtail_common.parameters import ParameterSpec
 from fishtail_design.errors import ExecutorError
 
 if TYPE_CHECKING:
@@ -57,20 +53,6 @@ R = TypeVar("R")
 #: millisecond in a local pool, 10 to 20 ms on Dask). A population of 100 is then one task: it
 #: is scored faster than it could be shipped; a sweep's chunks are many.
 BATCH_SIZE = 1024
-
-PROCESSES = ParameterSpec("processes", 2, "evaluate in N local processes", "", 1, 1024)
-WORKERS = ParameterSpec(
-    "workers", 2, "start a local Dask cluster of N single-threaded worker processes", "", 1, 1024
-)
-BATCH_SIZE_OPTION = ParameterSpec(
-    "batch_size",
-    BATCH_SIZE,
-    "most designs per task: larger batches cost less overhead, smaller ones keep more workers busy",
-    "",
-    1,
-    1_000_000,
-)
-
 
 class Executor(Protocol):
     """Runs a batch function over batches, somewhere, and hands back each result as it completes.
@@ -309,72 +291,3 @@ def _joined(results: list[R]) -> R:
         return cast("R", np.concatenate(cast(list[np.ndarray], results)))
     columns = zip(*cast(list[tuple[np.ndarray, ...]], results), strict=True)
     return type(first)(*(np.concatenate(column) for column in columns))
-
-
-def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--processes N``, ``--workers N`` or ``--scheduler tcp://HOST:PORT``, and ``--batch-size``.
-
-    The first three are mutually exclusive (none: in this process); values out of range are
-    argparse errors. :func:`executor_from_arguments` builds the executor they name.
-    """
-    group = parser.add_argument_group(
-        "where the designs are evaluated (default: in this process)",
-        "A Dask cluster's workers need the same fishtail install as this machine; "
-        "docs/design.md, Scaling out.",
-    )
-    where = group.add_mutually_exclusive_group()
-    add_parameter_options(where, [PROCESSES, WORKERS], optional=True)
-    where.add_argument(
-        "--scheduler",
-        type=scheduler_address,
-        metavar="tcp://HOST:PORT",
-        help="evaluate on the running Dask cluster whose scheduler is there",
-    )
-    add_parameter_options(group, [BATCH_SIZE_OPTION])
-
-
-def scheduler_address(text: str) -> str:
-    """A Dask scheduler's address, ``tcp://HOST:PORT``, as argparse checks it.
-
-    Raises:
-        argparse.ArgumentTypeError: another form.
-
-    >>> scheduler_address("tcp://10.0.0.5:8786")
-    'tcp://10.0.0.5:8786'
-    """
-    try:
-        parts = urlsplit(text)
-        port = parts.port
-    except ValueError:
-        port = None
-    else:
-        if parts.scheme == "tcp" and parts.hostname and port and not (parts.path or parts.query):
-            return text
-    raise argparse.ArgumentTypeError(f"expected tcp://HOST:PORT, got {text!r}")
-
-
-def executor_from_arguments(arguments: argparse.Namespace) -> Executor:
-    """The executor that :func:`add_executor_arguments`'s options name.
-
-    Raises:
-        ExecutorError: a Dask cluster that does not start or a scheduler that does not answer.
-    """
-    if arguments.processes is not None:
-        return LocalProcessExecutor(arguments.processes)
-    # Dask's module is imported only for a run that asks for it (its import takes seconds).
-    from fishtail_design.dask_executor import DaskExecutor
-
-    if arguments.workers is not None:
-        return DaskExecutor(workers=arguments.workers)
-    if arguments.scheduler is not None:
-        return DaskExecutor(arguments.scheduler)
-    return InProcessExecutor()
-
-
-def __getattr__(name: str) -> object:
-    """``DaskExecutor`` from here too, imported on first use."""
-    if name == "DaskExecutor":
-        from fishtail_design.dask_executor import DaskExecutor
-
-        return DaskExecutor
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -19,7 +19,7 @@ from pathlib import Path
 from fishtail_common.command_line import OneLineErrorParser, add_parameter_options
 from fishtail_common.parameters import ParameterSpec
 from fishtail_design.errors import DesignError
-from fishtail_design.executors import add_executor_arguments, executor_from_arguments
+from fishtail_design.executor_options import add_executor_arguments, executor_from_arguments
 from fishtail_design.problem import read_problem
 from fishtail_design.sweep import (
     CHUNK_SIZE,

@@ -32,13 +32,12 @@ from fishtail_common.command_line import OneLineErrorParser
 from fishtail_design import dask_executor, executors
 from fishtail_design.dask_executor import DaskExecutor
 from fishtail_design.errors import ExecutorError
+from fishtail_design.executor_options import add_executor_arguments, executor_from_arguments
 from fishtail_design.executors import (
     BATCH_SIZE,
     InProcessExecutor,
     LocalProcessExecutor,
-    add_executor_arguments,
     evaluate_in_batches,
-    executor_from_arguments,
 )
 
 TEST_DIR = Path(__file__).resolve().parent
@@ -235,17 +234,19 @@ def test_an_unreachable_scheduler_is_refused_in_one_line(
         refusing.bind(("127.0.0.1", 0))
         silent.bind(("127.0.0.1", 0))
         silent.listen()
-        cases = ((refusing, 5.0, ": [Errno 111] Connection refused"), (silent, 0.3, ""))
-        for sock, timeout_s, reason in cases:
+        for sock, timeout_s in ((refusing, 5.0), (silent, 0.3)):
             monkeypatch.setattr(dask_executor, "CONNECT_TIMEOUT_S", timeout_s)
             address = f"tcp://127.0.0.1:{sock.getsockname()[1]}"
             # The deadline catches a hang; how fast the refusal comes is the machine's load's.
             with pytest.raises(ExecutorError) as raised:
                 within(10.0, "refusing", executor_from_arguments, parse("--scheduler", address))
-            expected = (
-                f"the Dask scheduler at {address} does not answer within {timeout_s:g} s{reason}"
-            )
-            assert str(raised.value) == expected
+            # The reason after the address is the operating system's (a refused connection
+            # says so; in a process where Dask has run before it may say nothing more).
+            text = str(raised.value)
+            assert text.startswith(
+                f"the Dask scheduler at {address} does not answer within {timeout_s:g} s"
+            ), text
+            assert "\n" not in text
 
 
 # --------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ the arguments the formula returns. The same numbers as the numpy path to roundin
 numba is optional and not imported with the engine: :func:`compiled_pass` imports it (and
 loads the compiled pass from numba's disk cache, keyed to the formula's source) the first time
 a batch asks, and gives None without it or with NUMBA_DISABLE_JIT; the caller then solves with
-numpy. ``python -m fishtail_plant.fish.fused`` (make setup) compiles it into the cache.
+numpy. ``python -m fishtail_plant.compiled`` (make setup) compiles it into the cache.
 """
 
 from __future__ import annotations

@@ -10,13 +10,12 @@ Compiling takes seconds (tens on a busy machine); numba caches the result on dis
 file (or under ``NUMBA_CACHE_DIR``), keyed to the source of the formulas as well as this file's
 (:mod:`fishtail_common.compiled_cache`). :func:`compile_loop` compiles, or loads, every
 specialisation the simulator node and ``fishtail-swim`` use: ``make setup`` runs it last
-(``python -m fishtail_plant.fish.fused``, which prepares the suite's other compiled code too),
+(``python -m fishtail_plant.compiled``, which prepares the suite's other compiled code too),
 so that no later run waits for the compiler.
 """
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable
 from typing import Any, NamedTuple, TypeAlias
@@ -278,43 +277,3 @@ def compile_loop(batches: tuple[str, ...] | None = None) -> LoopPreparation:
         _LOOP.compile(signatures[name])
     compiled = compiled_count() - before
     return LoopPreparation(time.monotonic() - started, compiled, len(wanted) - compiled)
-
-
-def main() -> int:
-    """``python -m fishtail_plant.fish.fused``: compile (or load) the loop, and say how long.
-
-    Then the suite's other compiled code, the engine's batch pass
-    (:mod:`~fishtail_kinematics.engine.drive_pass`) and the synthesis' cycle kernel
-    (:mod:`~fishtail_plant.fish.cycle_kernel`), so that ``make setup`` prepares them all.
-    """
-    if not loop_signatures():
-        print("swimming integrator: not compiled (numba is not installed, or NUMBA_DISABLE_JIT)")
-        return 0
-    cached = is_cached() and is_cached("shared tail")
-    verb = "loading" if cached else "compiling"
-    print(f"{verb} the swimming integrator (numba; cache {cache_path()}) ...", flush=True)
-    done = compile_loop()
-    print(
-        f"{verb} the swimming integrator ... took {done.seconds:.1f} s "
-        f"({done.compiled} specialisations compiled, {done.loaded} loaded from the cache)"
-    )
-    # Imported here: the kernel's module imports this one.
-    from fishtail_kinematics.engine import drive_pass
-    from fishtail_plant.fish import cycle_kernel
-
-    others: tuple[tuple[str, Callable[[], bool | None], Callable[[], Any]], ...] = (
-        ("the engine's batch pass", drive_pass.is_cached, drive_pass.compile_pass),
-        ("the cycle kernel", cycle_kernel.is_cached, cycle_kernel.compile_kernel),
-    )
-    for name, current, prepare in others:
-        verb = "loading" if current() else "compiling"
-        print(f"{verb} {name} (numba) ...", flush=True)
-        prepared = prepare()
-        if prepared is not None:
-            how = "compiled" if prepared.compiled else "loaded from the cache"
-            print(f"{verb} {name} ... took {prepared.seconds:.1f} s ({how})")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,7 +1,7 @@
 """compile_loop (what make setup runs last) leaves nothing for a later process to compile.
 
 Each check runs in fresh interpreters with numba's cache in a temporary directory: one runs
-``python -m fishtail_plant.fish.fused``, the next does what the simulator node and
+``python -m fishtail_plant.compiled``, the next does what the simulator node and
 ``fishtail-swim`` do, and what the synthesis' search tier does with the cycle kernel and the
 engine's batch pass, and counts the compilations (numba's cache misses).
 """
@@ -85,7 +85,7 @@ def run(code_or_module: list[str], cache_dir) -> str:
 
 def test_after_compile_loop_nothing_compiles(tmp_path):
     cache = tmp_path / "numba-cache"
-    first = run(["-m", "fishtail_plant.fish.fused"], cache)
+    first = run(["-m", "fishtail_plant.compiled"], cache)
     assert first.startswith("compiling the swimming integrator (numba; cache "), first
     assert "took " in first and "(2 specialisations compiled, 0 loaded" in first, first
     uses = run(["-c", USES], cache)
@@ -94,7 +94,7 @@ def test_after_compile_loop_nothing_compiles(tmp_path):
     assert "kernel cached before True" in uses, uses
     assert "kernel compiled 0" in uses, uses
     assert "pass compiled 0" in uses, uses
-    again = run(["-m", "fishtail_plant.fish.fused"], cache)
+    again = run(["-m", "fishtail_plant.compiled"], cache)
     assert again.startswith("loading the swimming integrator"), again
     assert "(0 specialisations compiled, 2 loaded from the cache)" in again, again
     assert "loading the cycle kernel ... took" in again and "(loaded from the cache)" in again
