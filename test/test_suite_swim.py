@@ -153,16 +153,19 @@ def test_fish_swims_forward_nearly_straight_as_the_library_says(start_node, ros,
             assert message.heading_change_rad == pytest.approx(
                 expected.heading_change_rad, abs=HEADING_TOLERANCE_RAD
             )
-    newest = received[-1]
+    # The start-up is still going on, so the speed is judged in one given beat, not the newest: a
+    # loaded machine delivers more beats before the probe stops waiting, and later ones are faster.
+    judged = received[BEATS - 1]
     period = 2.0 * math.pi / SPEED_RAD_S
     drive = EngineTailDrive(tail, constant_carrier_speed(np.array([SPEED_RAD_S])))
     steady = float(steady_surge_speed(drive, fish, period)[0])
-    assert newest.beat_frequency_hz == pytest.approx(1.0 / period, rel=0.02)
-    assert STEADY_SHARE[0] * steady < newest.mean_speed_m_s < STEADY_SHARE[1] * steady
-    assert newest.body_lengths_per_s == pytest.approx(newest.mean_speed_m_s / 0.5)
+    assert judged.beat_frequency_hz == pytest.approx(1.0 / period, rel=0.02)
+    share = judged.mean_speed_m_s / steady
+    assert STEADY_SHARE[0] < share < STEADY_SHARE[1], f"beat {judged.beat_index}: {share:.1%}"
+    assert judged.body_lengths_per_s == pytest.approx(judged.mean_speed_m_s / 0.5)
     # Turning right on a wide circle once the start-up has passed, as the library's Cardan tail.
-    assert newest.heading_change_rad < 0.0 and -1000.0 < newest.turning_radius_m < 0.0
-    assert 0.2 < newest.strouhal_number < 2.0 and 0.0 < newest.froude_efficiency < 1.0
+    assert judged.heading_change_rad < 0.0 and -1000.0 < judged.turning_radius_m < 0.0
+    assert 0.2 < judged.strouhal_number < 2.0 and 0.0 < judged.froude_efficiency < 1.0
 
     # RViz markers: body outline, path and tail, in the world frame.
     ros.wait_for_messages(markers, 2, STREAM_TIMEOUT_S, FISH_MARKERS.name)

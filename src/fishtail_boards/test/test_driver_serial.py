@@ -25,6 +25,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 DISCOVERY_S = 15.0
+#: From a board's appearance to the driver's next status: the reconnect backoff (at most 2 s after
+#: a long absence), the handshake (up to its 5 s timeout on a busy board) and a diagnostics period,
+#: with room for a loaded machine. An event wait: a quick connection ends it at once.
+CONNECT_S = 15.0
+#: For motion or a watchdog stop to show on a connected board.
+MOTION_S = 10.0
 MAX_SPEED = 20.0
 COUNT_RAD = 2 * math.pi / 2048
 
@@ -100,25 +106,29 @@ def test_driver_serial_end_to_end(ros_probe, board_process, driver_process, tmp_
     first = board_process(link, log=logs[0])
     first.next_path()
     mark = len(diagnostics)
-    wait(level_after(mark, 0), 6.0, "OK once the board is there")
+    wait(level_after(mark, 0), CONNECT_S, "OK once the board is there")
     # 3. Commanded motion: the angle advances.
     probe.spin_until(lambda: probe.node.count_subscribers("motor/cmd_speed") >= 1, DISCOVERY_S,
                      "the driver's command subscription")  # fmt: skip
     speed["value"] = 5.0
-    wait(lambda: angle() > 1.5, 5.0, "the joint_state angle to advance")
+    wait(lambda: angle() > 1.5, MOTION_S, "the joint_state angle to advance")
     assert any(c != "m 0 0" for c in motor_commands(logs[0]))
     # 4. Unplug (kill the board) and replug (a new board at the same link).
     first.kill(signal.SIGKILL)
     mark = len(diagnostics)
-    wait(level_after(mark, 2), 3.0, "ERROR after the unplug")
+    wait(level_after(mark, 2), MOTION_S, "ERROR after the unplug")
     held = angle()
     second = board_process(link, log=logs[1])
     second.next_path()
     mark = len(diagnostics)
     # Connected again, WARN rather than OK: the new board counts from 0, so the angle was re-based
     # and the carrier phase may have shifted.
-    wait(level_after(mark, 1, "phase_rad may need re-calibration"), 6.0, "WARN after the replug")
-    wait(lambda: angle() > held + 1.5, 5.0, "motion after the replug")
+    wait(
+        level_after(mark, 1, "phase_rad may need re-calibration"),
+        CONNECT_S,
+        "WARN after the replug",
+    )
+    wait(lambda: angle() > held + 1.5, MOTION_S, "motion after the replug")
     stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in joints]
     angles = [m.position[0] for m in joints]
     gaps = [(stamps[i + 1] - stamps[i], i) for i in range(len(stamps) - 1)]
@@ -131,10 +141,10 @@ def test_driver_serial_end_to_end(ros_probe, board_process, driver_process, tmp_
         assert step <= 2 * MAX_SPEED * (stamps[i + 1] - stamps[i] + 0.05), f"jump {step:.3f}"
     # 5. Commands stop: the driver's watchdog stops the motor (m 0 0 on the board).
     speed["value"] = None
-    wait(lambda: motor_commands(logs[1])[-1:] == ["m 0 0"], 3.0, "the watchdog's m 0 0")
+    wait(lambda: motor_commands(logs[1])[-1:] == ["m 0 0"], MOTION_S, "the watchdog's m 0 0")
     # 6. Commands resume, then SIGINT: the board receives m 0 0 before the driver exits.
     speed["value"] = 4.0
-    wait(lambda: motor_commands(logs[1])[-1:] not in ([], ["m 0 0"]), 3.0, "motion again")
+    wait(lambda: motor_commands(logs[1])[-1:] not in ([], ["m 0 0"]), MOTION_S, "motion again")
     driver.send_signal(signal.SIGINT)
     status = driver.wait(10.0)
     assert status == 0, driver.output()
