@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import copy
 import math
+from typing import NamedTuple
 
 import numpy as np
-import numpy.typing as npt
 
 from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
 from fishtail_kinematics.engine.input_guard import JUMP_SPEED_MARGIN, plausible_advance_rad
@@ -24,6 +24,7 @@ from fishtail_plant.fish.figures import tail_thrust_and_power
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.integrator import Stepper
 from fishtail_plant.fish.model import PSI, STATE_SIZE, SURGE, SwimModel, X, Y
+from fishtail_plant.fish.sampled_carrier import LinearCarrier, RecordedCarrier
 from fishtail_plant.fish.tail_drive import EngineTailDrive
 
 TWO_PI = 2.0 * math.pi
@@ -35,6 +36,9 @@ _MIN_SEGMENT_S = 1e-12
 MAX_STEP_ANGLE_RAD = TWO_PI / 16
 #: Default cap on the sub-steps of one sample: the work per sample is bounded (a few ms compiled).
 DEFAULT_MAX_SUB_STEPS = 1000
+#: The tail's figures (thrust, power, tip) of a beat's sub-steps are computed this many at a time,
+#: and at the beat's end: one vectorised call instead of one per sample, the simulator's main cost.
+DEFERRED_STEPS = 64
 #: The most beats of history given to a fish that joins a carrier already turning: a fish from
 #: rest is in its periodic state to 1e-6 after about 60 beats, whatever the speed.
 JOIN_HISTORY_BEATS = 100
@@ -61,26 +65,13 @@ class CarrierJumpError(SwimInputError):
         self.elapsed_s = elapsed_s
 
 
-class LinearCarrier:
-    """The carrier between two samples: phi = phi0 + phi_dot (t - t0), a CarrierMotion."""
+class _Steps(NamedTuple):
+    """Sub-steps integrated whose tail figures are not yet in the beat: times, states, carrier."""
 
-    def __init__(self) -> None:
-        """At rest at phi = 0 until :meth:`set` is called."""
-        self.start_time_s = 0.0
-        self.start_angle_rad = 0.0
-        self.speed_rad_s = 0.0
-
-    def set(self, start_time_s: float, start_angle_rad: float, speed_rad_s: float) -> None:
-        """Follow the line through (t0, phi0) with slope ``speed_rad_s`` from now on."""
-        self.start_time_s = start_time_s
-        self.start_angle_rad = start_angle_rad
-        self.speed_rad_s = speed_rad_s
-
-    def __call__(self, time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """phi, phi_dot and phi_ddot (0) at ``time_s``."""
-        elapsed = np.asarray(time_s, dtype=float) - self.start_time_s
-        angle = self.start_angle_rad + self.speed_rad_s * elapsed
-        return angle, np.full_like(angle, self.speed_rad_s), np.zeros_like(angle)
+    times_s: FloatArray
+    states: FloatArray
+    angles_rad: FloatArray
+    speeds_rad_s: FloatArray
 
 
 class SwimFollower:
@@ -120,9 +111,8 @@ class SwimFollower:
         self.max_speed_rad_s = max_speed_rad_s
         self.max_sub_steps = max_sub_steps
         self.carrier = LinearCarrier()
-        self.tail = tail
-        self.model = SwimModel(fish, EngineTailDrive(tail, self.carrier))
-        self._stepper = Stepper(self.model, 1)
+        self._recorded = RecordedCarrier()
+        self._use_tail(tail)
         self._body_length_m = float(fish.body_length_m)
         #: (1, 6): X, Y, psi in world; u, v, r in the body frame.
         self.state: FloatArray = np.zeros((1, STATE_SIZE))
@@ -134,6 +124,8 @@ class SwimFollower:
         self._last_stamp_ns = 0
         self._next_boundary_rad = 0.0
         self._beat: BeatAccumulator | None = None
+        #: Sub-steps of the beat in progress whose figures are still to be added to it.
+        self._deferred: tuple[_Steps, ...] = ()
         self.beats_completed = 0
         self.sub_steps = 0
         self.restarts = 0
@@ -225,6 +217,7 @@ class SwimFollower:
         try:
             state = self.state
             beat = copy.copy(self._beat)  # its sums grow in place
+            deferred = self._deferred
             next_boundary = self._next_boundary_rad
             finished: list[BeatFigures] = []
             steps = 0
@@ -233,21 +226,31 @@ class SwimFollower:
             while speed > 0.0 and angle_rad >= next_boundary:
                 crossing = start_time + (next_boundary - start_angle) / speed
                 crossing = min(max(crossing, segment_start), end_time)
-                state, segment_steps = self._integrate(state, beat, segment_start, crossing)
+                state, segment_steps, deferred = self._integrate(
+                    state, beat, deferred, segment_start, crossing
+                )
                 steps += segment_steps
                 segment_start = crossing
                 next_boundary += TWO_PI
                 if beat is not None:
+                    self._settle(beat, deferred)
                     index = self.beats_completed + len(finished)
                     finished.append(beat.figures(index, state, self._body_length_m))
+                deferred = ()
                 beat = BeatAccumulator(crossing, state, *self._tail_figures_now(crossing, state))
-            state, segment_steps = self._integrate(state, beat, segment_start, end_time)
+            state, segment_steps, deferred = self._integrate(
+                state, beat, deferred, segment_start, end_time
+            )
             steps += segment_steps
+            if beat is not None and sum(len(d.times_s) for d in deferred) >= DEFERRED_STEPS:
+                self._settle(beat, deferred)
+                deferred = ()
         except BaseException:
             carrier.set(*previous_carrier)
             raise
         self.state = state
         self._beat = beat
+        self._deferred = deferred
         self._next_boundary_rad = next_boundary
         self.finished.extend(finished)
         self.beats_completed += len(finished)
@@ -340,8 +343,15 @@ class SwimFollower:
         the change takes effect at a sample, a step in the tail's motion no larger than the
         actuator's travel in one sample interval.
         """
+        if self._beat is not None:
+            self._settle(self._beat, self._deferred)
+        self._deferred = ()
+        self._use_tail(tail)
+
+    def _use_tail(self, tail: Tail) -> None:
         self.tail = tail
         self.model = SwimModel(self.fish, EngineTailDrive(tail, self.carrier))
+        self._figures_model = SwimModel(self.fish, EngineTailDrive(tail, self._recorded))
         self._stepper = Stepper(self.model, 1)
 
     def take_beats(self) -> list[BeatFigures]:
@@ -352,6 +362,7 @@ class SwimFollower:
     def _restart(self, time_s: float, angle_rad: float) -> None:
         self.restarts += 1
         self._beat = None
+        self._deferred = ()
         self.time_s, self.angle_rad = time_s, angle_rad
         self._next_boundary_rad = TWO_PI * math.ceil(angle_rad / TWO_PI)
 
@@ -361,20 +372,45 @@ class SwimFollower:
         return float(thrust[0]), float(power[0]), float(tip_y[0])
 
     def _tail_figures(
-        self, time_s: FloatArray, states: FloatArray
+        self, time_s: FloatArray, states: FloatArray, model: SwimModel | None = None
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Thrust, tail power and tip y at each of ``time_s`` (K,) for ``states`` (K, 1, 6)."""
         # The library's figures (figures.tail_figures) sample by sample: plate and recoil too.
-        push, power, tail = tail_thrust_and_power(self.model, time_s[:, None], states)
+        push, power, tail = tail_thrust_and_power(model or self.model, time_s[:, None], states)
         return push[:, 0], power[:, 0], np.broadcast_to(tail.tip_y, power.shape)[:, 0]
 
+    def _settle(self, beat: BeatAccumulator, deferred: tuple[_Steps, ...]) -> None:
+        """Add the deferred sub-steps' figures to ``beat``, all in one call."""
+        if not deferred:
+            return
+        times = np.concatenate([steps.times_s for steps in deferred])
+        self._recorded.record(
+            times,
+            np.concatenate([steps.angles_rad for steps in deferred]),
+            np.concatenate([steps.speeds_rad_s for steps in deferred]),
+        )
+        states = np.concatenate([steps.states for steps in deferred])
+        figures = self._tail_figures(times, states, self._figures_model)
+        for end, thrust, power, tip_y in zip(times.tolist(), *(f.tolist() for f in figures),
+                                             strict=True):  # fmt: skip
+            beat.add(end, thrust, power, tip_y)
+
     def _integrate(
-        self, state: FloatArray, beat: BeatAccumulator | None, start_s: float, end_s: float
-    ) -> tuple[FloatArray, int]:
-        """``state`` integrated from ``start_s`` to ``end_s`` (added to ``beat``), and the steps."""
+        self,
+        state: FloatArray,
+        beat: BeatAccumulator | None,
+        deferred: tuple[_Steps, ...],
+        start_s: float,
+        end_s: float,
+    ) -> tuple[FloatArray, int, tuple[_Steps, ...]]:
+        """``state`` integrated from ``start_s`` to ``end_s``, the steps, and ``deferred``.
+
+        While a beat is in progress the steps join ``deferred``: :meth:`_settle` adds their
+        figures to the beat later, many steps in one call.
+        """
         length = end_s - start_s
         if length < _MIN_SEGMENT_S:
-            return state, 0
+            return state, 0, deferred
         # A step a rounding error longer than max_step_s (stamps are whole nanoseconds) is one step.
         turned = abs(self.carrier.speed_rad_s) * length
         steps = max(
@@ -393,7 +429,6 @@ class SwimFollower:
         if beat is not None:
             ends: FloatArray = start_s + np.arange(1, steps + 1, dtype=np.float64) * step
             ends[-1] = end_s
-            figures = self._tail_figures(ends, states[1:])
-            for end, thrust, power, tip_y in zip(ends, *figures, strict=True):
-                beat.add(float(end), float(thrust), float(power), float(tip_y))
-        return state, steps
+            angles, speeds, _ = self.carrier(ends)
+            deferred = (*deferred, _Steps(ends, states[1:], angles, speeds))
+        return state, steps, deferred

@@ -102,6 +102,29 @@ def test_irregular_samples_reproduce_simulate_to_integration_accuracy(tail, fine
     np.testing.assert_allclose(got[1:], final[1:], atol=1e-5 * abs(final[0]))
 
 
+def test_the_beat_figures_do_not_depend_on_when_its_steps_are_figured(tail):
+    """Figures settled every DEFERRED_STEPS sub-steps or at every sample: the same beats.
+
+    A tail set again after every sample (the same tail) makes the follower figure the sub-steps
+    so far at once; 1 ms sub-steps make beats of hundreds, settled in blocks otherwise, each
+    step with its own interval's carrier.
+    """
+    times = np.arange(0.0, 2.5 * PERIOD_S, 0.005)
+    # A carrier that speeds up: each interval has a speed of its own.
+    angles = SPEED_RAD_S * times * (1.0 + 0.2 * times)
+    blocks = SwimFollower(tail, FishParameters(), 0.001)
+    each = SwimFollower(tail, FishParameters(), 0.001)
+    for time_s, angle in zip(times, angles, strict=True):
+        blocks.follow(round(time_s * 1e9), angle)
+        each.follow(round(time_s * 1e9), angle)
+        each.set_tail(tail)
+    assert blocks.beats_completed == each.beats_completed == 3
+    for ours, theirs in zip(blocks.take_beats(), each.take_beats(), strict=True):
+        for field in ("mean_thrust_n", "mean_tail_power_w", "tip_excursion_m", "mean_speed_m_s"):
+            assert getattr(ours, field) == pytest.approx(getattr(theirs, field), rel=1e-12)
+    assert blocks.state == pytest.approx(each.state, rel=1e-12, abs=1e-15)
+
+
 def test_idle_carrier_starts_no_beat_and_the_fish_stays_at_rest(tail):
     follower = SwimFollower(tail, FishParameters(), 0.001)
     for k in range(50):
