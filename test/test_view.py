@@ -120,6 +120,12 @@ def column(batches: list, name: str) -> np.ndarray:
     return np.array(values, dtype=float)
 
 
+def tail_plot(batches: list) -> tuple[np.ndarray, np.ndarray]:
+    """theta3 [deg] and the carrier speed [rad/s] of mechanism 1's tail plot, sample by sample."""
+    values = column(batches, "Scalars:scalars").reshape(-1, 2)
+    return values[:, 0], values[:, 1]
+
+
 def suite(start_node, ros, config_dir):
     """Driver, kinematics and monitor on the simulated motor, running at SPEED_RAD_S."""
     processes = [
@@ -151,17 +157,16 @@ def test_a_rerun_client_receives_the_tail_and_the_plots(
     client = start_client(start_process, rerun_settings, url, rrd)
     ros.wait_for_subscribers(TAIL_MARKERS.name, 1)
     ros.wait_for_subscribers(TAIL_STATE.name, 3)  # and the view, sensor-data QoS
-    needed = {"/tail/drawing", "/plots/angles", "/plots/carrier"}
+    needed = {"/tail/drawing", "/plots/tail"}
     ros.spin_until(lambda: needed <= set(received(rrd)), DATA_TIMEOUT_S, f"{needed} at the client")
     ros.spin_until(
-        lambda: len(column(received(rrd).get("/plots/angles", []), "Scalars:scalars")) >= 500,
+        lambda: len(tail_plot(received(rrd).get("/plots/tail", []))[0]) >= 500,
         DATA_TIMEOUT_S,
         "10 s of theta3 (at --plot-rate-hz 50) at the client",
     )
     client.stop()
     entities = received(rrd)
-    theta3 = column(entities["/plots/angles"], "Scalars:scalars")  # mechanism 1: theta3 alone
-    speed = column(entities["/plots/carrier"], "Scalars:scalars")
+    theta3, speed = tail_plot(entities["/plots/tail"])  # mechanism 1: no theta5
     # The report's mechanism swings about +-26 degrees; the simulated motor holds 4 rad/s.
     assert 20.0 < theta3.max() < 30.0 and -30.0 < theta3.min() < -20.0
     assert np.median(speed) == pytest.approx(SPEED_RAD_S, rel=0.05)
@@ -396,7 +401,7 @@ def test_a_bag_replays_at_its_pace_to_a_client(ros, start_process, rerun_setting
     wait_for_output(ros, view, "replay done")
     took = time.monotonic() - started
     ros.spin_until(
-        lambda: len(column(received(rrd).get("/plots/angles", []), "Scalars:scalars")) >= 600,
+        lambda: len(tail_plot(received(rrd).get("/plots/tail", []))[0]) >= 600,
         DATA_TIMEOUT_S,
         "every theta3 sample of the bag at the client",
     )
@@ -407,7 +412,7 @@ def test_a_bag_replays_at_its_pace_to_a_client(ros, start_process, rerun_setting
         assert entity in entities, (entity, sorted(entities))
     fish = entities["/fish/drawing"][-1].column("LineStrips2D:strips").to_pylist()[-1]
     assert len(fish) == 3  # hull, path and tail
-    theta3 = column(entities["/plots/angles"], "Scalars:scalars")
+    theta3, _ = tail_plot(entities["/plots/tail"])
     assert len(theta3) == 600 and 20.0 < theta3.max() < 30.0
     assert "linkage drawn with the geometry of" in view.stdout()
     assert view.returncode is None  # still serving after the replay

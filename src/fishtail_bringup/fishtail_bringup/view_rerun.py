@@ -17,11 +17,11 @@ from typing import Any
 import numpy as np
 
 from fishtail_bringup.view_scene import (
-    ANGLES_PLOT,
-    CARRIER_SPEED_PLOT,
     FISH_ROOT,
     SYMMETRY_LOG,
+    TAIL_PLOT,
     TAIL_ROOT,
+    TAIL_SERIES,
     Clear,
     Colour,
     Lines,
@@ -50,11 +50,12 @@ LATENCY_PLOT = "view/latency"
 VIEW_NOTES = "view/notes"
 #: Seconds of the scrolling plots.
 PLOT_WINDOW_S = 10.0
-#: Each plotted entity's series: names and colours, in the order of its values' columns.
-PLOT_COLOURS = {
-    ANGLES_PLOT: (("θ3", "θ5"), ((51, 204, 102), (230, 120, 40))),
-    CARRIER_SPEED_PLOT: (("carrier speed",), ((64, 140, 242),)),
-    LATENCY_PLOT: (("view latency",), ((230, 200, 60),)),
+#: Each plotted series' colour, by name.
+SERIES_COLOURS = {
+    TAIL_SERIES[0]: (51, 204, 102),
+    TAIL_SERIES[1]: (230, 120, 40),
+    TAIL_SERIES[2]: (64, 140, 242),
+    "view latency": (230, 200, 60),
 }
 
 
@@ -98,12 +99,7 @@ def blueprint() -> Any:
                 rrb.Spatial2DView(origin=FISH_ROOT, name="fish, top view (world, m)"),
             ),
             rrb.Vertical(
-                rrb.TimeSeriesView(
-                    origin="plots/angles", name="θ3, θ5 [deg]", time_ranges=scrolling
-                ),
-                rrb.TimeSeriesView(
-                    origin="plots/carrier", name="carrier speed [rad/s]", time_ranges=scrolling
-                ),
+                rrb.TimeSeriesView(origin=TAIL_PLOT, name="tail", time_ranges=scrolling),
                 rrb.TimeSeriesView(
                     origin=LATENCY_PLOT, name="view latency [s]", time_ranges=scrolling
                 ),
@@ -112,7 +108,7 @@ def blueprint() -> Any:
                     contents=[f"+ /{SYMMETRY_LOG}", f"+ /{VIEW_NOTES}"],
                     name="symmetry verdicts, view notes",
                 ),
-                row_shares=[2, 2, 1, 1],
+                row_shares=[4, 1, 1],
             ),
             column_shares=[3, 2],
         ),
@@ -168,18 +164,27 @@ class RerunView:
         #: What each drawn entity showed last, to skip re-logging what did not change (the
         #: ring, guides and pivots come with every marker array): a log call costs ~0.3 ms.
         self._shown: dict[str, tuple] = {}
+        #: The series' names each plotted entity was given.
+        self._named: dict[str, tuple[str, ...]] = {}
         self._style()
 
     def _style(self) -> None:
-        """Names and colours of the plotted series, and +y up in both pictures (static)."""
+        """The latency's series, and +y up in both pictures (static)."""
         rr = self.rr
-        for entity, (names, colours) in PLOT_COLOURS.items():
-            rr.log(entity, rr.SeriesLines(names=names, colors=colours), static=True,
-                   recording=self.recording)  # fmt: skip
+        self._name_series(LATENCY_PLOT, ("view latency",))
         # Rerun's 2D views point y down (image rows); the frames here have y to the left of x.
         for root in (TAIL_ROOT, FISH_ROOT):
             rr.log(root, rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True,
                    recording=self.recording)  # fmt: skip
+
+    def _name_series(self, entity: str, names: tuple[str, ...]) -> None:
+        """Names and colours of ``entity``'s series (static), unless it has these already."""
+        if not names or self._named.get(entity) == names:
+            return
+        self._named[entity] = names
+        colours = [SERIES_COLOURS.get(name, (200, 200, 200)) for name in names]
+        self.rr.log(entity, self.rr.SeriesLines(names=names, colors=colours), static=True,
+                    recording=self.recording)  # fmt: skip
 
     def viewer_count(self) -> int:
         """Viewers connected now: established TCP connections to our gRPC port."""
@@ -236,6 +241,7 @@ class RerunView:
                 }
             count += 1
             if isinstance(primitive, Series):
+                self._name_series(primitive.entity, primitive.names)
                 rr.send_columns(
                     primitive.entity,
                     indexes=[rr.TimeColumn(TIMELINE, timestamp=primitive.times_s)],

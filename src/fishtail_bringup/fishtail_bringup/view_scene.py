@@ -38,9 +38,11 @@ Colour = tuple[float, float, float, float]  # RGBA, 0..1 as in std_msgs/ColorRGB
 #: Entity roots: the tail's drawing (its frame), the fish's (``world``), the plots, the verdicts.
 TAIL_ROOT = "tail"
 FISH_ROOT = "fish"
-#: The plots: theta3 and theta5 as two series of one entity (one message per batch, not two).
-ANGLES_PLOT = "plots/angles"
-CARRIER_SPEED_PLOT = "plots/carrier"
+#: The tail's plot: theta3, theta5 (mechanism 2) and the carrier speed as series of one entity,
+#: one message per batch (a software-rendered page takes in few a second; docs/visualisation.md).
+TAIL_PLOT = "plots/tail"
+#: Its series, in the order of its columns.
+TAIL_SERIES = ("θ3 [deg]", "θ5 [deg]", "carrier speed [rad/s]")
 SYMMETRY_LOG = "symmetry"
 GOAL_ENTITY = f"{FISH_ROOT}/goal"
 
@@ -102,6 +104,8 @@ class Series:
     entity: str
     times_s: FloatArray
     values: FloatArray
+    #: The series' names, one per column (empty: the entity's names stay as they are).
+    names: tuple[str, ...] = ()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -221,8 +225,8 @@ class TailPlots:
 
     :meth:`add` keeps three floats per message, at most ``rate_hz`` messages a second by their
     stamps (0: all; :class:`~fishtail_bringup.view_pacing.RateLimit`); :meth:`flush` hands them
-    over as :class:`Series` (one send per plot, not one per sample): theta3 and theta5 together,
-    theta3 alone where theta5 is not a number (mechanism 1).
+    over as one :class:`Series` (one send, not one per sample): theta3, theta5 and the carrier
+    speed, without theta5 where it is not a number (mechanism 1).
     """
 
     def __init__(self, rate_hz: float = 0.0) -> None:
@@ -256,17 +260,14 @@ class TailPlots:
             return []
         times = np.array(self._times)
         self.newest_s = float(times.max())
-        theta5 = np.array(self._theta5)
-        angles = np.array(self._theta3)
-        if np.isfinite(theta5).all():
-            angles = np.stack((angles, theta5), axis=-1)
-        series: list[Primitive] = [
-            Series(ANGLES_PLOT, times, angles),
-            Series(CARRIER_SPEED_PLOT, times, np.array(self._speed)),
-        ]
+        columns = [self._theta3, self._theta5, self._speed]
+        names: tuple[str, ...] = TAIL_SERIES
+        if not np.isfinite(self._theta5).all():
+            columns, names = [self._theta3, self._speed], (TAIL_SERIES[0], TAIL_SERIES[2])
+        series = Series(TAIL_PLOT, times, np.array(columns).T, names)
         for values in (self._times, self._theta3, self._theta5, self._speed):
             values.clear()
-        return series
+        return [series]
 
 
 def symmetry_primitives(report: Any) -> tuple[float, list[Primitive]]:

@@ -133,16 +133,16 @@ def test_tail_plots_gather_degrees_and_skip_a_missing_theta5():
     plots.add(tail_state(1.0, math.radians(10.0), math.nan, 4.0))
     plots.add(tail_state(1.005, math.radians(-5.0), math.nan, 4.1))
     assert len(plots) == 2
-    series = {s.entity: s for s in plots.flush()}
-    assert set(series) == {scene.ANGLES_PLOT, scene.CARRIER_SPEED_PLOT}
-    assert isinstance(series[scene.ANGLES_PLOT], Series)
-    assert series[scene.ANGLES_PLOT].values == pytest.approx([10.0, -5.0])  # theta3 alone
-    assert series[scene.CARRIER_SPEED_PLOT].times_s == pytest.approx([1.0, 1.005])
+    (series,) = plots.flush()
+    assert isinstance(series, Series) and series.entity == scene.TAIL_PLOT
+    assert series.names == ("θ3 [deg]", "carrier speed [rad/s]")
+    assert series.values == pytest.approx(np.array([[10.0, 4.0], [-5.0, 4.1]]))
+    assert series.times_s == pytest.approx([1.0, 1.005])
     assert len(plots) == 0 and plots.flush() == []
     plots.add(tail_state(2.0, math.radians(20.0), math.radians(30.0), 4.0))
-    angles = next(s for s in plots.flush() if s.entity == scene.ANGLES_PLOT)
-    assert angles.values.shape == (1, 2)  # theta3, theta5
-    assert angles.values[0] == pytest.approx([20.0, 30.0])
+    (series,) = plots.flush()
+    assert series.names == ("θ3 [deg]", "θ5 [deg]", "carrier speed [rad/s]")
+    assert series.values == pytest.approx(np.array([[20.0, 30.0, 4.0]]))
 
 
 def test_a_drawing_is_merged_into_one_entity_with_each_shape_s_colour_and_size():
