@@ -134,10 +134,11 @@ class Console:
             return
         reached = route.current
         position = message.pose.pose.position
-        if route.update((position.x, position.y)):
+        how = route.update((position.x, position.y))
+        if how is not None:
             assert reached is not None
             self.say(
-                f"fishtail-run: waypoint ({reached[0]:g}, {reached[1]:g}) reached at "
+                f"fishtail-run: waypoint ({reached[0]:g}, {reached[1]:g}) {how} at "
                 f"({position.x:.3f}, {position.y:.3f})" + ("; route done" if route.finished else "")
             )
             self.send_goal()

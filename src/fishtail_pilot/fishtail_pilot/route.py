@@ -2,31 +2,47 @@
 
 Plain Python (no rclpy), so that the console's node and the closed loop without ROS follow a
 route by the same rule: the next waypoint becomes the goal once the fish is within the tolerance
-of the current one, which is when the pilot, with the same tolerance, reports it reached.
+of the current one (when the pilot, with the same tolerance, reports it reached), or once it has
+passed a waypoint that is not the last close by, as a waypoint follower does at a corner it
+cannot turn onto: coming back to it would take a loop (docs/steering.md, "The square").
 """
 
 from __future__ import annotations
 
 import math
 
+#: A waypoint before the last counts as passed within this distance [m]: the fish is past the
+#: line through it across its leg and this close to it: the default fish's tightest turning
+#: radius (1.0 m, mechanism 1), inside which turning back to a corner takes a loop.
+PASS_WITHIN_M = 1.0
+
 
 class GoalRoute:
-    """Waypoints visited in turn: the current one until the fish is within the tolerance of it.
+    """Waypoints visited in turn: the current one until the fish reaches or passes it.
 
-    >>> route = GoalRoute([(1.0, 0.0), (1.0, 1.0)], tolerance_m=0.2)
+    >>> route = GoalRoute([(1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], tolerance_m=0.2)
     >>> route.current
     (1.0, 0.0)
     >>> route.update((0.9, 0.05)), route.current
-    (True, (1.0, 1.0))
-    >>> route.update((1.0, 0.9)), route.current, route.finished
-    (True, None, True)
+    ('reached', (1.0, 1.0))
+    >>> route.update((1.3, 1.2)), route.current
+    ('passed', (0.0, 1.0))
+    >>> route.update((0.0, 0.9)), route.current, route.finished
+    ('reached', None, True)
     """
 
-    def __init__(self, waypoints: list[tuple[float, float]], tolerance_m: float) -> None:
-        """Start at the first waypoint."""
+    def __init__(
+        self,
+        waypoints: list[tuple[float, float]],
+        tolerance_m: float,
+        pass_within_m: float = PASS_WITHIN_M,
+    ) -> None:
+        """Start at the first waypoint; its leg starts where the fish is first seen."""
         self.waypoints = list(waypoints)
         self.tolerance_m = tolerance_m
+        self.pass_within_m = pass_within_m
         self.index = 0
+        self._leg_start: tuple[float, float] | None = None
 
     @property
     def current(self) -> tuple[float, float] | None:
@@ -38,16 +54,33 @@ class GoalRoute:
         """Every waypoint reached."""
         return self.index >= len(self.waypoints)
 
-    def update(self, position_m: tuple[float, float]) -> bool:
-        """Move to the next waypoint if the current one is reached; whether it moved."""
+    def update(self, position_m: tuple[float, float]) -> str | None:
+        """Move on if the current waypoint is reached or passed: ``"reached"``, ``"passed"``.
+
+        None: still swimming to it (an unknown, NaN, position reaches and passes nothing).
+        """
         goal = self.current
         if goal is None:
-            return False
-        # Written as "not within" so that an unknown (NaN) position reaches nothing.
-        if not math.hypot(goal[0] - position_m[0], goal[1] - position_m[1]) <= self.tolerance_m:
-            return False
+            return None
+        if self._leg_start is None and all(map(math.isfinite, position_m)):
+            self._leg_start = (float(position_m[0]), float(position_m[1]))
+        gap_x, gap_y = position_m[0] - goal[0], position_m[1] - goal[1]
+        distance = math.hypot(gap_x, gap_y)
+        # Written as "within" so that NaN is neither reached nor passed.
+        if distance <= self.tolerance_m:
+            return self._next(goal, "reached")
+        if self.index + 1 < len(self.waypoints) and distance <= self.pass_within_m:
+            start = self._leg_start
+            assert start is not None  # a finite distance comes from a finite position
+            leg_x, leg_y = goal[0] - start[0], goal[1] - start[1]
+            if gap_x * leg_x + gap_y * leg_y > 0.0:
+                return self._next(goal, "passed")
+        return None
+
+    def _next(self, goal: tuple[float, float], how: str) -> str:
         self.index += 1
-        return True
+        self._leg_start = goal
+        return how
 
 
 def square_route(side_m: float) -> list[tuple[float, float]]:

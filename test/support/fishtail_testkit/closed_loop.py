@@ -39,13 +39,13 @@ def follow(route: GoalRoute) -> Script:
     The first waypoint goes to the pilot at the start; after each sample the route is updated
     with the fish's position the pilot last saw, and once the current waypoint is reached the
     next one is set (the console's route, on the same odometry as the pilot's, and the pilot
-    reach a waypoint on the same sample).
+    reach a waypoint on the same sample; a waypoint passed close by is left for the next).
     """
 
     def script(time_s: float, pilot: Pilot) -> None:
         if time_s == 0.0 and route.current is not None:
             pilot.set_goal(*route.current)
-        elif route.update(pilot.position_m) and route.current is not None:
+        elif route.update(pilot.position_m) is not None and route.current is not None:
             pilot.set_goal(*route.current)
 
     return script
