@@ -44,7 +44,7 @@ SERVER_MEMORY_LIMIT = "32MiB"
 #: How often the SDK hands what was logged to the server, in batches (one chunk per entity per
 #: batch; the web viewer's cost is mostly per chunk). Rerun's own default is 0.2 s; 0.3 s with
 #: about 4 entities per batch keeps a software-rendered page within 2 s (docs/visualisation.md).
-DEFAULT_SEND_PERIOD_S = 0.3
+DEFAULT_SEND_PERIOD_S = 0.4
 #: The view's own latency (send time minus the newest sent stamp, s) and its warnings.
 LATENCY_PLOT = "view/latency"
 VIEW_NOTES = "view/notes"
