@@ -1,12 +1,13 @@
-"""Synthesis throughput: the search tier of mechanism 1, the engine's batch solve, sweeps, a run.
+"""Synthesis throughput: both mechanisms' search tier, the engine's batch solve, sweeps, a run.
 
-Prints figures only; targets: the search tier >= 20 000 designs/s of mechanism 1 on one core
-(a design: its linkage solved over a beat and its balance; compiled kernel), the engine's batch
-solve <= 1.3x its transcendental floor (the cos/sin/sqrt/atan2/asin calls on the same samples),
-a sweep on two Dask workers >= 1.7x one core. Then the time of a full run of
-config/design/report-fish.yaml (the search, the verified front, the files). The problem is
-config/design/report-fish.yaml, 128 samples a beat. Run with `make bench`; ``--quick``: fewer
-designs in the sweeps and no full run.
+Prints figures only; targets: the search tier >= 20 000 designs/s of mechanism 1 and >= 5 000
+of mechanism 2 on one core (a design: its linkage solved over a beat and its balance; compiled
+kernels), the engine's batch solve <= 1.3x its transcendental floor (the cos/sin/sqrt/atan2/asin
+calls on the same samples), a sweep on two Dask workers >= 1.7x one core. Then the time of a full
+run of config/design/report-fish.yaml (the search, the verified front, the files). The problems
+are config/design/report-fish.yaml and, for mechanism 2, report-fish-undulatory.yaml, 128 samples
+a beat. Run with `make bench`; ``--quick``: fewer designs in the sweeps and no full run;
+``--search-tier``: the search tier's lines only.
 """
 
 from __future__ import annotations
@@ -36,10 +37,12 @@ from fishtail_plant.motor.duty import MotorConstants
 from measure import ROOT, best_of, pin_to_one_core, verdict
 
 PROBLEM = ROOT / "config" / "design" / "report-fish.yaml"
+UNDULATORY_PROBLEM = ROOT / "config" / "design" / "report-fish-undulatory.yaml"
 POPULATION = 2000
 SWEEP_DESIGNS = 1_000_000
 QUICK_SWEEP_DESIGNS = 100_000
 TARGET_DESIGNS_S = 20_000
+TARGET_UNDULATORY_DESIGNS_S = 5_000
 SWEEP_CHUNK = 16384
 SWEEP_BATCH = 8192
 
@@ -55,11 +58,11 @@ def search_tier_rate(problem: Problem, rows: np.ndarray, repeats: int = 5) -> fl
     return rows.shape[0] / best_of(lambda: evaluate_rows(problem, rows), repeats)
 
 
-def numpy_tier_rate(rows: int) -> float:
+def numpy_tier_rate(rows: int, problem: Path = PROBLEM) -> float:
     """The search tier's designs/s without the compiler (a process with NUMBA_DISABLE_JIT)."""
     environment = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
     completed = subprocess.run(
-        [sys.executable, __file__, "--numpy-tier", str(rows)],
+        [sys.executable, __file__, "--numpy-tier", str(rows), str(problem)],
         env=environment, capture_output=True, text=True, check=True, timeout=1800,
     )  # fmt: skip
     return float(completed.stdout.split()[-1])
@@ -232,7 +235,7 @@ def main() -> None:
     """Print the figures."""
     if sys.argv[1:2] == ["--numpy-tier"]:
         pin_to_one_core()
-        problem = read_problem(PROBLEM)
+        problem = read_problem(Path(sys.argv[3]))
         print(search_tier_rate(problem, designs(problem, int(sys.argv[2])), repeats=2))
         return
     quick = "--quick" in sys.argv[1:]
@@ -243,7 +246,8 @@ def main() -> None:
     print(
         f"design benchmark ({pinned}), {PROBLEM.relative_to(ROOT)}, population {POPULATION}, "
         f"{problem.search.samples_per_beat} samples a beat; compiled kernel: "
-        f"{'yes' if cycle_kernel.kernel_signature() else 'no (numba missing)'}"
+        f"{'yes' if cycle_kernel.kernel_signature() else 'no (numba missing)'}; "
+        f"{os.environ.get('OPENBLAS_NUM_THREADS', 'default')} OpenBLAS threads"
     )
     compiled_rate = search_tier_rate(problem, rows)
     numpy_rate = numpy_tier_rate(POPULATION)
@@ -252,6 +256,18 @@ def main() -> None:
         f"compiled, {numpy_rate:,.0f} designs/s numpy; {compiled_rate / numpy_rate:.0f}x "
         f"(target >= {TARGET_DESIGNS_S:,}/s: {verdict(compiled_rate >= TARGET_DESIGNS_S)})"
     )
+    undulatory = read_problem(UNDULATORY_PROBLEM)
+    undulatory_rows = designs(undulatory, POPULATION)
+    compiled_rate = search_tier_rate(undulatory, undulatory_rows)
+    numpy_rate = numpy_tier_rate(POPULATION, UNDULATORY_PROBLEM)
+    print(
+        f"search tier (evaluate_rows), mechanism 2, one core: {compiled_rate:,.0f} designs/s "
+        f"compiled, {numpy_rate:,.0f} designs/s numpy; {compiled_rate / numpy_rate:.0f}x "
+        f"(target >= {TARGET_UNDULATORY_DESIGNS_S:,}/s: "
+        f"{verdict(compiled_rate >= TARGET_UNDULATORY_DESIGNS_S)})"
+    )
+    if "--search-tier" in sys.argv[1:]:
+        return
     fast, slow, difference = performance_rates(problem, rows)
     print(
         f"performance() alone: {fast:,.0f} designs/s compiled, {slow:,.0f} numpy "

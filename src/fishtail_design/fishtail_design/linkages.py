@@ -2,11 +2,12 @@
 
 :class:`OscillatoryLinkages` holds mechanism 1's designs as one
 :class:`~fishtail_kinematics.engine.drive_batch.OscillatoryBatch`; :class:`UndulatoryLinkages`
-holds mechanism 2's as one engine tail per design (the second loop's solver is fitted to each
-geometry). Both measure, over one stroke, what the hull and the monitor ask of a linkage: that
-it assembles, its smallest transmission angle, the room it takes at O, and how symmetric its
-swing is by the monitor's own statistics. :data:`LINKAGE_TYPES` gives the class of each
-mechanism. What each margin means: docs/design.md ("Constraints").
+holds mechanism 2's as one :class:`~fishtail_design.undulatory_batch.UndulatoryBatch` (the
+second loop followed design by design by a compiled kernel). Both measure, over one stroke,
+what the hull and the monitor ask of a linkage: that it assembles, its smallest transmission
+angle, the room it takes at O, and how symmetric its swing is by the monitor's own statistics.
+:data:`LINKAGE_TYPES` gives the class of each mechanism. What each margin means: docs/design.md
+("Constraints").
 """
 
 from __future__ import annotations
@@ -18,33 +19,19 @@ from typing import ClassVar, NamedTuple, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_design.undulatory_batch import UndulatoryBatch
 from fishtail_design.variables import LINKAGE_VARIABLES
 from fishtail_kinematics.engine.drive_batch import OscillatoryBatch
-from fishtail_kinematics.engine.errors import (
-    AssemblyError,
-    InvalidLengthError,
-    PinOffsetError,
-    SolverError,
-)
-from fishtail_kinematics.engine.geometry import OSCILLATORY, UNDULATORY, UndulatoryGeometry
-from fishtail_kinematics.engine.undulatory_tail import UndulatoryTail
-from fishtail_plant.fish.fish import FloatArray
-from fishtail_plant.fish.steady_turn import PerFishDrive
+from fishtail_kinematics.engine.geometry import OSCILLATORY, UNDULATORY
+from fishtail_plant.fish.cycle_kernel import HeldCycles, held_cycles
+from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.tail_drive import (
     CarrierMotion,
-    EngineTailDrive,
     LinkageBatchDrive,
     TailAcceleration,
     TailDrive,
     TailSample,
 )
-
-#: What the engine raises for a mechanism-2 geometry it cannot build: the design does not assemble.
-ENGINE_REFUSALS = (AssemblyError, PinOffsetError, SolverError, InvalidLengthError)
-#: Carrier angles a mechanism-2 tail is solved at once built: next to a toggle pose the engine
-#: builds a tail whose Newton solve from its seed then fails (a pin 1e-5 m from the fold), and
-#: such a design is refused like one the engine would not build.
-CHECK_SAMPLES = 128
 
 
 class Stroke(NamedTuple):
@@ -74,6 +61,11 @@ class Linkages(Protocol):
 
     def drive(self, carrier: CarrierMotion) -> TailDrive:
         """Every linkage turned by ``carrier`` (its angles broadcast against the designs)."""
+
+    def held_cycles(
+        self, fish: FishParameters, carrier_speed_rad_s: FloatArray, samples: int
+    ) -> HeldCycles | None:
+        """Each linkage towed at its balance speed over a beat, compiled (None: use drive)."""
 
     def stroke(self, samples: int, hull_length_m: float = math.inf) -> Stroke:
         """The stroke's figures from ``samples`` carrier angles over a revolution.
@@ -129,6 +121,12 @@ class OscillatoryLinkages:
         """Every linkage turned by ``carrier`` (its angles broadcast against the designs)."""
         return LinkageBatchDrive(self.batch, carrier)
 
+    def held_cycles(
+        self, fish: FishParameters, carrier_speed_rad_s: FloatArray, samples: int
+    ) -> HeldCycles | None:
+        """Each linkage towed at its balance speed over a beat by the compiled cycle kernel."""
+        return held_cycles(self.batch, fish, carrier_speed_rad_s, samples)
+
     def stroke(self, samples: int, hull_length_m: float = math.inf) -> Stroke:
         """The stroke's figures from ``samples`` carrier angles over a revolution.
 
@@ -151,21 +149,6 @@ class OscillatoryLinkages:
         )  # fmt: skip
 
 
-def second_loop_conditions(designs: Mapping[str, FloatArray]) -> FloatArray:
-    """Mechanism 2's loop conditions that need no swing, as signed lengths [m], shape (3, N).
-
-    > 0 where each holds: the pin U on SW short of W's joint, SW - VW - SU (the engine's
-    ``0 < SU < SW - VW``); W between V and T, VT - VW; the slider A behind S in the straight
-    pose, AS = AV + VW - SW.
-    """
-    sw, vw = designs["swing_arm_m"], designs["fin_joint_offset_m"]
-    return np.array([
-        sw - vw - designs["pin_offset_m"],
-        designs["fin_link_m"] - vw,
-        designs["slotted_link_m"] + vw - sw,
-    ])  # fmt: skip
-
-
 def loop_transmission_sine(
     theta4: FloatArray, theta5: FloatArray, pin_distance_m: FloatArray, slotted_link_m: FloatArray
 ) -> FloatArray:
@@ -185,69 +168,13 @@ def loop_transmission_sine(
     return np.asarray(along / np.hypot(path_x, path_y), dtype=float)
 
 
-class _NoPose:
-    """The drive of a design that does not assemble: NaN at any time (a batch keeps its shape)."""
-
-    def sample(self, time_s: npt.ArrayLike) -> TailSample:
-        """NaN shaped like ``time_s``."""
-        nan = np.full(np.shape(time_s), np.nan)
-        return TailSample(nan, nan, nan, nan, nan, nan)
-
-    def acceleration(self, time_s: npt.ArrayLike) -> TailAcceleration:
-        """NaN shaped like ``time_s``."""
-        nan = np.full(np.shape(time_s), np.nan)
-        return TailAcceleration(nan, nan, nan)
-
-
-class _ClosedOrNaN:
-    """A design's drive, NaN at times where its loop does not close (next to a toggle pose)."""
-
-    def __init__(self, drive: TailDrive) -> None:
-        self.drive = drive
-
-    def sample(self, time_s: npt.ArrayLike) -> TailSample:
-        """The drive's sample, NaN if the engine's solve fails."""
-        try:
-            return self.drive.sample(time_s)
-        except SolverError:
-            return _NoPose().sample(time_s)
-
-    def acceleration(self, time_s: npt.ArrayLike) -> TailAcceleration:
-        """The drive's accelerations, NaN if the engine's solve fails."""
-        try:
-            return self.drive.acceleration(time_s)
-        except SolverError:
-            return _NoPose().acceleration(time_s)
-
-
-def _column(values: FloatArray, index: int) -> FloatArray:
-    """Design ``index``'s column of a per-design array (..., N); a shared (..., 1) as it is."""
-    array = np.asarray(values, dtype=float)
-    return array[..., index : index + 1] if array.ndim and array.shape[-1] > 1 else array
-
-
-def column_carrier(carrier: CarrierMotion, index: int) -> CarrierMotion:
-    """Design ``index``'s carrier of a carrier for the whole population (one speed per design).
-
-    The population's carrier is evaluated at the design's times (a column, broadcast against
-    every design's speed) and the design's column kept: a carrier is a function of time and
-    each design's own settings, which this needs no knowledge of.
-    """
-
-    def motion(time_s: npt.ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-        angle, rate, acceleration = carrier(time_s)
-        return _column(angle, index), _column(rate, index), _column(acceleration, index)
-
-    return motion
-
-
 class _Remembered:
     """A drive that answers the times it was last asked from memory.
 
     The search asks a population's drive the same times again and again (the balance, then the
     load at the same samples; the turning figure's bisection varies the yaw rate at fixed tail
-    motion); a mechanism-2 population is solved design by design, so each repeat would cost a
-    solve per design. The remembered arrays are read-only.
+    motion); each repeat would cost a mechanism-2 population a Newton solve of its second loop.
+    The remembered arrays are read-only.
     """
 
     def __init__(self, drive: TailDrive) -> None:
@@ -287,58 +214,41 @@ def _frozen(values: tuple[FloatArray, ...]) -> list[FloatArray]:
 
 
 class UndulatoryLinkages:
-    """Mechanism 2's designs: one engine tail per design, None where the engine refuses it.
+    """Mechanism 2's designs, one linkage per element of the length arrays.
 
-    The engine's second loop is solved by Newton's method from a seed fitted to each geometry
-    (a continuation sweep on construction, which also proves the loop's branch over the swing),
-    so the lengths cannot be arrays: each design gets its
-    :class:`~fishtail_kinematics.engine.undulatory_tail.UndulatoryTail`. The drive's assembly
-    margins are the vectorised ones of mechanism 1 (SW is the drive's tail link).
+    The drive is mechanism 1's batch (SW its tail link); the second loop is followed design by
+    design by the compiled kernel (:class:`~fishtail_design.undulatory_batch.UndulatoryBatch`),
+    each pose the engine's to its tolerance. A design the engine would refuse does not
+    assemble: NaN poses, its reason in ``refusals``.
     """
 
     has_second_loop: ClassVar[bool] = True
 
     def __init__(self, designs: Mapping[str, FloatArray]) -> None:
         """The linkages of ``designs`` (the lengths of :data:`LINKAGE_VARIABLES`)."""
-        self.batch = OscillatoryBatch(
-            designs["ring_radius_m"], designs["crank_link_m"], designs["rocker_link_m"],
-            designs["swing_arm_m"], designs["pivot_offset_m"],
-        )  # fmt: skip
+        self.batch = UndulatoryBatch(
+            {name: designs[name] for name in LINKAGE_VARIABLES[UNDULATORY]}
+        )
         self.size = self.batch.size
-        self.lengths = {
-            name: np.broadcast_to(np.asarray(designs[name], dtype=float), (self.size,))
-            for name in LINKAGE_VARIABLES[UNDULATORY]
-        }
-        self.loop_conditions_m = second_loop_conditions(self.lengths)
-        #: Each design's tail, None where the engine refused it, and the engine's reason.
-        self.tails: list[UndulatoryTail | None] = []
-        self.refusals: list[str | None] = []
-        for index in range(self.size):
-            try:
-                geometry = UndulatoryGeometry(
-                    **{name: float(values[index]) for name, values in self.lengths.items()}
-                )
-                tail = UndulatoryTail(geometry)
-                tail.solve(_revolution(CHECK_SAMPLES), 1.0)
-                self.tails.append(tail)
-                self.refusals.append(None)
-            except ENGINE_REFUSALS as error:
-                self.tails.append(None)
-                self.refusals.append(f"{type(error).__name__}: {error}")
+        self.lengths = self.batch.lengths
+        self.loop_conditions_m = self.batch.loop_conditions_m
+        #: The engine's reason for refusing each design, None where it builds the tail.
+        self.refusals: list[str | None] = self.batch.refusals
 
     @property
     def assembles(self) -> npt.NDArray[np.bool_]:
-        """Whether the engine built each linkage (both loops over the whole stroke)."""
-        return np.array([tail is not None for tail in self.tails], dtype=bool)
+        """Whether each linkage assembles (both loops over the whole stroke)."""
+        return np.asarray(self.batch.assembles, dtype=bool)
 
     def drive(self, carrier: CarrierMotion) -> TailDrive:
         """Every linkage turned by its column of ``carrier``; NaN for one that does not assemble."""
-        drives: list[TailDrive] = [
-            _NoPose() if tail is None
-            else _ClosedOrNaN(EngineTailDrive(tail, column_carrier(carrier, index)))
-            for index, tail in enumerate(self.tails)
-        ]  # fmt: skip
-        return _Remembered(PerFishDrive(drives))
+        return _Remembered(LinkageBatchDrive(self.batch, carrier))
+
+    def held_cycles(
+        self, fish: FishParameters, carrier_speed_rad_s: FloatArray, samples: int
+    ) -> HeldCycles | None:
+        """Each linkage towed at its balance speed over a beat by the compiled loop kernel."""
+        return self.batch.held_cycles(fish, carrier_speed_rad_s, samples)
 
     def stroke(self, samples: int, hull_length_m: float = math.inf) -> Stroke:
         """The stroke's figures from ``samples`` carrier angles over a revolution.
@@ -348,15 +258,7 @@ class UndulatoryLinkages:
         travel, and the second loop's joints U, A, V, W against the width while they lie within
         ``hull_length_m`` behind O (beyond it they are the tail, in the water, as the fin is).
         """
-        angles = _revolution(samples)
-        rows = [None if tail is None else _stroke_columns(tail, angles) for tail in self.tails]
-        # Every design keeps its column (NaN where there is no stroke), so that a design's
-        # figures are the same bits whatever else is in its batch (as mechanism 1's).
-        blank = dict.fromkeys(_SOLVED_FIELDS, np.full(samples, np.nan))
-        columns = {
-            name: np.stack([(row or blank)[name] for row in rows], axis=1)
-            for name in _SOLVED_FIELDS
-        }
+        columns = _stroke_columns(self.batch, samples)
         with np.errstate(invalid="ignore"):
             figures = _stroke_figures(columns, self.lengths, hull_length_m)
         conditions = self.loop_conditions_m.min(axis=0)
@@ -365,32 +267,31 @@ class UndulatoryLinkages:
         figures["second_loop_m"] = np.where(
             conditions < 0.0, conditions, np.minimum(conditions, figures["second_loop_m"])
         )
-        inner, outer = self.batch.assembly_margins_m
+        inner, outer = self.batch.drive.assembly_margins_m
         return Stroke(inner, outer, **figures)
 
 
-_STATE_FIELDS = ("theta1", "theta2", "theta3", "theta4", "theta5", "pin_u_distance",
-                 "slider_a_distance", "tip_y")  # fmt: skip
-_JOINTS = ("joint_r", "pin_u", "slider_a", "joint_v", "joint_w")
-#: What a solved stroke gives of each design: state fields and the joints' x and y.
-_SOLVED_FIELDS = (*_STATE_FIELDS, *(f"{joint}_{axis}" for joint in _JOINTS for axis in "xy"))
+def _stroke_columns(batch: UndulatoryBatch, samples: int) -> dict[str, FloatArray]:
+    """The population's stroke, (samples, N): the state's angles and the joints the hull holds.
 
-
-def _stroke_columns(tail: UndulatoryTail, angles: FloatArray) -> dict[str, FloatArray] | None:
-    """One design's solved stroke: the angles and the joints of the engine's link_points.
-
-    None where the loop does not close at one of ``angles`` (next to a toggle pose).
+    The joints as the engine's ``link_points`` places them (undulatory_points): R = P + PR
+    (cos theta1, -sin theta1), U = S + SU e(theta3), A = (OS - AS, 0), V = A + AV e(theta4),
+    W = S + SW e(theta3). NaN throughout for a design without a pose at every sample.
     """
-    try:
-        state = tail.solve(angles, 1.0)
-    except SolverError:
-        return None
-    points = tail.link_points(state)
-    columns = {name: np.asarray(getattr(state, name), dtype=float) for name in _STATE_FIELDS}
-    for joint in _JOINTS:
-        xy = np.asarray(getattr(points, joint), dtype=float)
-        columns[f"{joint}_x"], columns[f"{joint}_y"] = xy[..., 0], xy[..., 1]
-    return columns
+    c = batch.stroke_states(samples)
+    g = batch.lengths
+    pivot = g["pivot_offset_m"]
+    theta1, theta3, theta4 = c["theta1"], c["theta3"], c["theta4"]
+    c["joint_r_x"] = g["crank_link_m"] * np.cos(theta1)
+    c["joint_r_y"] = c["slider_position"] - g["crank_link_m"] * np.sin(theta1)
+    cos3, sin3 = np.cos(theta3), np.sin(theta3)
+    c["pin_u_x"], c["pin_u_y"] = pivot + g["pin_offset_m"] * cos3, g["pin_offset_m"] * sin3
+    c["slider_a_x"] = pivot - c["slider_a_distance"]
+    c["slider_a_y"] = np.zeros_like(theta3)
+    c["joint_v_x"] = c["slider_a_x"] + g["slotted_link_m"] * np.cos(theta4)
+    c["joint_v_y"] = g["slotted_link_m"] * np.sin(theta4)
+    c["joint_w_x"], c["joint_w_y"] = pivot + g["swing_arm_m"] * cos3, g["swing_arm_m"] * sin3
+    return c
 
 
 def _stroke_figures(

@@ -16,9 +16,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from fishtail_design.linkages import Linkages, OscillatoryLinkages
+from fishtail_design.linkages import Linkages
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
-from fishtail_plant.fish.cycle_kernel import HeldCycles, held_cycles
+from fishtail_plant.fish.cycle_kernel import HeldCycles
 from fishtail_plant.fish.figures import held_tail, steady_surge_speed
 from fishtail_plant.fish.fish import FishParameters, FloatArray
 from fishtail_plant.fish.steady_turn import strongest_phases
@@ -78,7 +78,7 @@ def performance(
     """The figures of every design at its carrier speed (NaN: as fast as the motor holds it).
 
     ``turning_depth``: also the quasi-steady turning at that modulation depth (slower).
-    ``compiled``: mechanism 1 towed by the compiled kernel where numba is there (the same
+    ``compiled``: towed by the mechanism's compiled kernel where numba is there (the same
     figures to rounding, tens of times faster); False: by numpy.
     """
     count = linkages.size
@@ -142,12 +142,13 @@ def towed_cycles(
     """Every design at its constant carrier speed, towed at its balance speed, over one beat.
 
     :func:`~fishtail_plant.fish.figures.steady_surge_speed` and
-    :func:`~fishtail_plant.fish.figures.held_tail` at ``samples`` times of the beat; for
-    mechanism 1, where numba is there and ``compiled``, the compiled kernel
-    (:func:`~fishtail_plant.fish.cycle_kernel.held_cycles`), which gives the same to rounding.
+    :func:`~fishtail_plant.fish.figures.held_tail` at ``samples`` times of the beat; where numba
+    is there and ``compiled``, the mechanism's compiled kernel (``linkages.held_cycles``: for
+    mechanism 1 :func:`~fishtail_plant.fish.cycle_kernel.held_cycles`, for mechanism 2
+    :func:`~fishtail_plant.fish.loop_kernel.held_loop_cycles`), which gives the same to rounding.
     """
-    if compiled and isinstance(linkages, OscillatoryLinkages):
-        cycles = held_cycles(linkages.batch, fish, carrier_speed_rad_s, samples)
+    if compiled:
+        cycles = linkages.held_cycles(fish, carrier_speed_rad_s, samples)
         if cycles is not None:
             return cycles
     drive = linkages.drive(constant_carrier_speed(carrier_speed_rad_s))

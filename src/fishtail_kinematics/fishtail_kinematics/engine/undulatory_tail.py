@@ -39,6 +39,14 @@ from fishtail_kinematics.engine.linkage_points import (
     UndulatoryPoints,
     undulatory_points,
 )
+from fishtail_kinematics.engine.loop_pose import (
+    LOOP_NEWTON_STEPS,
+    loop_closure,
+    loop_rates,
+    loop_residual_and_slope,
+    loop_tip,
+    residual_tolerance,
+)
 from fishtail_kinematics.engine.oscillatory_tail import OscillatoryTail
 from fishtail_kinematics.engine.tail_base import (
     ScalarOrArray,
@@ -46,16 +54,11 @@ from fishtail_kinematics.engine.tail_base import (
     check_pivot_shift,
 )
 
-# Loop-closure tolerance of the undulatory solver: how far W may sit off its circle about V. Each
-# sample stops at it on its own (so a sample's result does not depend on its batch); the tip T
-# lies beyond W, VT/VW times as far off, and rounding sits some 1000x below at the report's sizes.
-_CLOSURE_TOLERANCE_M = 1e-13
 # Samples of the continuation sweep that validates mechanism 2 and seeds its Newton solver.
 _CONTINUATION_SAMPLES = 2001
 # A degree-10 seed is within ~1e-12 m of the root on the report's geometry, so one Newton step
 # reaches rounding level; more steps run only where the closure check asks for them.
 _SEED_POLYNOMIAL_DEGREE = 10
-_MAX_NEWTON_STEPS = 8
 # The feasible pivot shifts of mechanism 2: grid steps from zero to each end of the drive's
 # interval, and the bisection's tolerance where the second loop first fails.
 _RANGE_GRID = 64
@@ -119,8 +122,10 @@ class UndulatoryTail(Tail):
         self._VW = g.fin_joint_offset_m
         self._WT = g.fin_link_m - g.fin_joint_offset_m
         self._OS = g.pivot_offset_m
-        # |W - V|^2 - VW^2 = (|W - V| - VW)(|W - V| + VW) ~ 2 VW x distance error.
-        self._residual_tolerance = 2.0 * self._VW * _CLOSURE_TOLERANCE_M
+        # Each sample stops at the tolerance on its own (so a sample's result does not depend on
+        # its batch); the tip T lies beyond W, VT/VW times as far off, and rounding sits some
+        # 1000x below at the report's sizes.
+        self._residual_tolerance = float(residual_tolerance(self._VW))
         self.straight_slider_a_distance = self._AV + self._VW - self._SW
         if self.straight_slider_a_distance <= 0.0:
             raise AssemblyError(
@@ -219,18 +224,10 @@ class UndulatoryTail(Tail):
     def _residual_and_slope(
         self, a: ScalarOrArray, cos3: ScalarOrArray, sin3: ScalarOrArray
     ) -> tuple[ScalarOrArray, ScalarOrArray]:
-        dx = a + self._SU * cos3
-        dy = self._SU * sin3
-        # np.hypot is ~15x slower than this and the operands are far from overflow.
-        au = np.sqrt(dx * dx + dy * dy) if isinstance(dx, np.ndarray) else math.hypot(dx, dy)
-        cos4 = dx / au
-        sin4 = dy / au
-        ex = self._SW * cos3 + a - self._AV * cos4
-        ey = self._SW * sin3 - self._AV * sin4
-        residual = ex * ex + ey * ey - self._VW * self._VW
-        # d(cos4)/da = sin4^2/AU, d(sin4)/da = -cos4 sin4/AU.
-        slope = 2.0 * (ex * (1.0 - self._AV * sin4 * sin4 / au) + ey * self._AV * cos4 * sin4 / au)
-        return residual, slope
+        return cast(
+            tuple[ScalarOrArray, ScalarOrArray],
+            loop_residual_and_slope(a, cos3, sin3, self._SU, self._SW, self._AV, self._VW),
+        )
 
     def _fit_seed(self) -> None:
         drive = self.drive
@@ -340,31 +337,17 @@ class UndulatoryTail(Tail):
         a = 0.0
         for coefficient in self._seed_coefficients:
             a = a * theta3 + coefficient
-        # The per-message path: _residual_and_slope inlined, and the last evaluation's W - V
-        # reused as VW e(theta5).
-        su, sw, av, vw = self._SU, self._SW, self._AV, self._VW
-        su_cos3, su_sin3, sw_cos3, sw_sin3 = su * cos3, su * sin3, sw * cos3, sw * sin3
-        vw_sq = vw * vw
-        slope = residual = 0.0
-        for step in range(_MAX_NEWTON_STEPS + 1):
-            if step:
-                a -= residual / slope
-            dx = a + su_cos3
-            au = math.hypot(dx, su_sin3)
-            cos4 = dx / au
-            sin4 = su_sin3 / au
-            ex = sw_cos3 + a - av * cos4
-            ey = sw_sin3 - av * sin4
-            residual = ex * ex + ey * ey - vw_sq
-            if step and abs(residual) < self._residual_tolerance:
-                break
-            lever = av * sin4 / au
-            slope = 2.0 * (ex * (1.0 - lever * sin4) + ey * lever * cos4)
-        else:
+        su, sw, vw = self._SU, self._SW, self._VW
+        a, au, cos4, sin4, ex, ey, residual, _, closed = loop_closure(
+            a, su * cos3, su * sin3, sw * cos3, sw * sin3, self._AV, vw * vw,
+            self._residual_tolerance,
+        )  # fmt: skip
+        if not closed:
             raise SolverError(
                 f"mechanism 2 loop does not close at theta3 = {theta3!r} rad "
                 f"(residual {residual:.3e} m^2)"
             )
+        # The last evaluation's W - V is VW e(theta5).
         cos5 = ex / vw
         sin5 = ey / vw
         rates = self._rates(d.fin_angle_dot, cos3, sin3, cos4, sin4, cos5, sin5, au)
@@ -379,7 +362,7 @@ class UndulatoryTail(Tail):
         a = cast(FloatArray, np.polyval(self._seed, d.fin_angle))
         residual, slope = self._residual_and_slope(a, cos3, sin3)
         step = residual / slope
-        for _ in range(_MAX_NEWTON_STEPS):
+        for _ in range(LOOP_NEWTON_STEPS):
             a -= step
             residual, slope = self._residual_and_slope(a, cos3, sin3)
             # Written so that a NaN residual counts as not converged.
@@ -414,30 +397,11 @@ class UndulatoryTail(Tail):
         sin5: Real,
         au: Real,
     ) -> tuple[Real, Real, Real, Real]:
-        # Time derivatives of the four loop equations, solved in closed form (docs/kinematics.md):
-        #   AS' [cos5 - (AV/AU) sin4 sin(t4-t5)]
-        #       = t3' [SW sin(t3-t5) - (AV SU/AU) sin(t4-t5) cos(t3-t4)]
-        #   t4' = (SU t3' cos(t3-t4) - AS' sin4) / AU
-        #   AU' = AS' cos4 - SU t3' sin(t3-t4)
-        #   t5' = (SW t3' cos(t3-t5) - AV t4' cos(t4-t5) - AS' sin5) / VW
-        sin34 = sin3 * cos4 - cos3 * sin4
-        cos34 = cos3 * cos4 + sin3 * sin4
-        sin35 = sin3 * cos5 - cos3 * sin5
-        cos35 = cos3 * cos5 + sin3 * sin5
-        sin45 = sin4 * cos5 - cos4 * sin5
-        cos45 = cos4 * cos5 + sin4 * sin5
-        lever = self._AV / au
-        slider_rate = (
-            theta3_dot
-            * (self._SW * sin35 - lever * self._SU * sin45 * cos34)
-            / (cos5 - lever * sin4 * sin45)
-        )
-        theta4_dot = (self._SU * theta3_dot * cos34 - slider_rate * sin4) / au
-        au_rate = slider_rate * cos4 - self._SU * theta3_dot * sin34
-        theta5_dot = (
-            self._SW * theta3_dot * cos35 - self._AV * theta4_dot * cos45 - slider_rate * sin5
-        ) / self._VW
-        return theta4_dot, au_rate, slider_rate, theta5_dot
+        # Time derivatives of the four loop equations, solved in closed form (docs/kinematics.md).
+        return loop_rates(
+            theta3_dot, cos3, sin3, cos4, sin4, cos5, sin5, au, self._SU, self._SW, self._AV,
+            self._VW,
+        )  # fmt: skip
 
     def _assemble(
         self,
@@ -454,10 +418,9 @@ class UndulatoryTail(Tail):
     ) -> UndulatoryState:
         theta4_dot, au_rate, slider_rate, theta5_dot = rates
         t3_dot = d.fin_angle_dot
-        tip_x = self._OS + self._SW * cos3 + self._WT * cos5
-        tip_y = self._SW * sin3 + self._WT * sin5
-        tip_x_dot = -self._SW * sin3 * t3_dot - self._WT * sin5 * theta5_dot
-        tip_y_dot = self._SW * cos3 * t3_dot + self._WT * cos5 * theta5_dot
+        tip_x, tip_y, tip_x_dot, tip_y_dot = loop_tip(
+            self._OS, self._SW, self._WT, cos3, sin3, cos5, sin5, t3_dot, theta5_dot
+        )
         return UndulatoryState(
             d.motor_angle, d.motor_velocity, d.slider_position, d.slider_velocity,
             d.theta1, d.theta1_dot, d.theta2, d.theta2_dot, d.theta3, d.theta3_dot,

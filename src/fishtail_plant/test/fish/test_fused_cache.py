@@ -2,7 +2,7 @@
 
 Each check runs in fresh interpreters with numba's cache in a temporary directory: one runs
 ``python -m fishtail_plant.compiled``, the next does what the simulator node and
-``fishtail-swim`` do, and what the synthesis' search tier does with the cycle kernel and the
+``fishtail-swim`` do, and what the synthesis' search tier does with the cycle kernels and the
 engine's batch pass, and counts the compilations (numba's cache misses).
 """
 
@@ -65,6 +65,21 @@ USES = textwrap.dedent(
     batch.solve(np.linspace(0.0, 6.0, 64)[:, None], 1.0)  # the stroke's solve
     passes = drive_pass.compiled_pass()
     print("pass compiled", sum(sum(p.stats.cache_misses.values()) for p in passes))
+    # Mechanism 2's loop kernels, as its search tier calls them.
+    from fishtail_plant.fish import loop_kernel
+
+    print("loop kernel cached before", loop_kernel.is_cached())
+    drive = OscillatoryBatch(np.array([0.1, 0.05]), 0.1, 0.233926, 0.16, 0.2)
+    lengths = [np.full(2, value) for value in (0.08, 0.24, 0.2, 0.06)]
+    table, loop = loop_kernel.drive_table(drive), loop_kernel.loop_table(drive, *lengths)
+    status, stroke = loop_kernel.follow_branches(table, loop, drive.assembles, 64)
+    fish = cycle_kernel._table([getattr(FishParameters(), name)
+                                for name in cycle_kernel.FISH_COLUMNS], 2)  # fmt: skip
+    slider = stroke[loop_kernel.STROKE_FIELDS.index("slider_a_distance")]
+    assert loop_kernel.held_loop_cycles(table, loop, slider, fish, np.ones(2), True, True,
+                                        64) is not None  # fmt: skip
+    kernels = (loop_kernel._FOLLOW, loop_kernel._KERNEL)
+    print("loop kernels compiled", sum(sum(k.stats.cache_misses.values()) for k in kernels))
     """
 )
 
@@ -94,11 +109,14 @@ def test_after_compile_loop_nothing_compiles(tmp_path):
     assert "kernel cached before True" in uses, uses
     assert "kernel compiled 0" in uses, uses
     assert "pass compiled 0" in uses, uses
+    assert "loop kernel cached before True" in uses, uses
+    assert "loop kernels compiled 0" in uses, uses
     again = run(["-m", "fishtail_plant.compiled"], cache)
     assert again.startswith("loading the swimming integrator"), again
     assert "(0 specialisations compiled, 2 loaded from the cache)" in again, again
     assert "loading the cycle kernel ... took" in again and "(loaded from the cache)" in again
     assert "loading the engine's batch pass ... took" in again
+    assert "loading the mechanism-2 loop kernel ... took" in again
 
 
 def test_without_compile_loop_the_uses_compile(tmp_path):
@@ -109,3 +127,5 @@ def test_without_compile_loop_the_uses_compile(tmp_path):
     assert "kernel cached before False" in uses, uses
     assert "kernel compiled 1" in uses, uses
     assert "pass compiled 1" in uses, uses
+    assert "loop kernel cached before False" in uses, uses
+    assert "loop kernels compiled 2" in uses, uses
