@@ -83,7 +83,8 @@ bench: setup
 	  exit $$rc
 
 # The real motor-board firmware (ROSArduinoBridge for an Arduino Nano) and its simulator on
-# libsimavr, into build/firmware (firmware/build.sh; docs/serial.md). FIRMWARE_SOURCE: a sketch
+# libsimavr, into build/firmware, and the project's firmware (the same with firmware/fishtail.patch)
+# into build/firmware/fishtail (firmware/build.sh; docs/serial.md, docs/firmware.md). FIRMWARE_SOURCE: a sketch
 # folder or .tar.gz of your own (default: the pinned joshnewans fork in ../shared/upstream).
 FIRMWARE_SOURCE ?=
 firmware:

@@ -2,7 +2,7 @@
  * avr_board: the ROSArduinoBridge firmware (an Arduino Nano build) running in simavr.
  *
  *   avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast] [--watch ADDR:SIZE]...
- *             [--poke ADDR:SIZE=VALUE]...
+ *             [--poke ADDR:SIZE=VALUE]... [--time-function ADDR]
  *
  * The ATmega328P runs at 16 MHz, paced to wall-clock time (unless --fast). Its UART is a
  * pseudo-terminal (simavr's uart_pty); once the firmware has started (2 ms of simulated time) the
@@ -26,6 +26,10 @@
  * --poke ADDR:SIZE=VALUE (repeatable): write VALUE there at the second simulated millisecond,
  * after the C runtime cleared RAM and setup() ran: a board that powered up with its encoder
  * counts elsewhere (the 32-bit wrap without 2^31 edges).
+ * --time-function ADDR (a function's byte address in flash, e.g. updatePID's from avr-nm): each D
+ * line also carries, after the watched variables, the AVR cycles its last completed call took,
+ * from its first instruction to the return to its caller, interrupts included (0 before the
+ * first); at exit the calls' count and least, mean and largest cycles go to stderr.
  *
  * SIGUSR1 resets the ATmega (what DTR does through the Nano's auto-reset capacitor): the firmware
  * boots again, its counts and loop at 0; simulated time keeps running. Ends on SIGINT/SIGTERM/
@@ -48,7 +52,7 @@
 #define CPU_HZ 16000000UL
 #define USAGE                                                                              \
 	"usage: avr_board FIRMWARE.elf [--link PATH] [--exchange] [--fast] [--watch ADDR:SIZE]... " \
-	"[--poke ADDR:SIZE=VALUE]...\n"
+	"[--poke ADDR:SIZE=VALUE]... [--time-function ADDR]\n"
 #define EXCHANGE_CYCLES (CPU_HZ / 1000) /* one exchange per simulated millisecond */
 
 /* ATmega328P data-space addresses of the registers the L298 pins depend on. */
@@ -60,6 +64,8 @@
 #define REG_TCCR1A 0x80
 #define REG_OCR1AL 0x88
 #define REG_OCR1BL 0x8A
+#define REG_SPL 0x5D
+#define REG_SPH 0x5E
 
 /* One L298 input pin: its PORT bit, and the timer output (COM bit, OCR) analogWrite() uses. */
 typedef struct {
@@ -102,6 +108,33 @@ static const char *link_path;
 static volatile sig_atomic_t stop_requested;
 static struct timespec wall_start;
 static double most_behind_s; /* the simulation's largest lag behind wall time (a busy host) */
+
+/* --time-function: the function's entry, the return address of the call under way (0: none),
+ * and the cycles of the calls so far. */
+static avr_flashaddr_t timed_entry, timed_return;
+static avr_cycle_count_t timed_start, timed_last, timed_least, timed_most, timed_total;
+static unsigned long timed_calls;
+static int timing;
+
+/* After every instruction: a call of the timed function starts, or the one under way returns. */
+static void time_function(void)
+{
+	if (timed_return == 0 && avr->pc == timed_entry) {
+		/* CALL pushed the return word address, high byte above the stack pointer. */
+		unsigned sp = avr->data[REG_SPL] | (avr->data[REG_SPH] << 8);
+		timed_return = ((avr->data[sp + 1] << 8) | avr->data[sp + 2]) * 2;
+		timed_start = avr->cycle;
+	} else if (timed_return != 0 && avr->pc == timed_return) {
+		timed_return = 0;
+		timed_last = avr->cycle - timed_start;
+		if (timed_calls == 0 || timed_last < timed_least)
+			timed_least = timed_last;
+		if (timed_last > timed_most)
+			timed_most = timed_last;
+		timed_total += timed_last;
+		timed_calls++;
+	}
+}
 
 /* What analogWrite()/digitalWrite() left on a pin: the OCR while the timer drives it, else the
  * PORT level (analogWrite(pin, 0) and (pin, 255) are digitalWrite()s that disconnect the timer). */
@@ -233,6 +266,8 @@ static avr_cycle_count_t millisecond(avr_t *a, avr_cycle_count_t when, void *par
 			(unsigned long long)(simulated_cycles() / (CPU_HZ / 1000000)), left, right);
 		for (int i = 0; i < watch_count; i++)
 			fprintf(exchange_out, " %lu", read_variable(&watches[i]));
+		if (timing)
+			fprintf(exchange_out, " %llu", (unsigned long long)timed_last);
 		fputc('\n', exchange_out);
 		fflush(exchange_out);
 		long counts[2];
@@ -281,6 +316,7 @@ static void reset_board(void)
 		show_encoder(&encoders[i]);
 	}
 	avr_cycle_timer_cancel(avr, millisecond, NULL);
+	timed_return = 0;
 	avr_cycle_timer_register(avr, EXCHANGE_CYCLES - avr->cycle % EXCHANGE_CYCLES, millisecond, NULL);
 }
 
@@ -313,7 +349,15 @@ int main(int argc, char **argv)
 		else if (!strcmp(argv[i], "--poke") && i + 1 < argc && poke_count < MAX_VARIABLES &&
 			 parse_variable(argv[i + 1], &pokes[poke_count], 1))
 			poke_count++, i++;
-		else if (argv[i][0] != '-' && !elf_path)
+		else if (!strcmp(argv[i], "--time-function") && i + 1 < argc) {
+			char *end;
+			timed_entry = strtoul(argv[++i], &end, 0);
+			if (*end != 0 || timed_entry == 0) {
+				fprintf(stderr, USAGE);
+				return 2;
+			}
+			timing = 1;
+		} else if (argv[i][0] != '-' && !elf_path)
 			elf_path = argv[i];
 		else {
 			fprintf(stderr, USAGE);
@@ -383,11 +427,18 @@ int main(int argc, char **argv)
 			reset_board();
 		}
 		state = avr_run(avr);
+		if (timing)
+			time_function();
 	}
 	if (link_path)
 		unlink(link_path);
 	fprintf(stderr, "avr_board: %.3f s simulated in %.3f s, at most %.0f ms behind\n",
 		(double)simulated_cycles() / CPU_HZ, seconds_since(&wall_start), most_behind_s * 1e3);
+	if (timing)
+		fprintf(stderr, "avr_board: timed function: %lu calls, cycles least %llu mean %.0f most %llu\n",
+			timed_calls, (unsigned long long)timed_least,
+			timed_calls ? (double)timed_total / timed_calls : 0.0,
+			(unsigned long long)timed_most);
 	/* Not uart_pty_stop(): joining its reader thread can block; the process ends it. */
 	fflush(exchange_out);
 	_exit(state == cpu_Crashed ? 1 : 0);

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The real motor-board firmware and its simulator for the tests (firmware/build.sh, into
-# build/firmware), built once by `make test` before pytest rather than by a test: the tests only
-# look for what it built. Without the AVR toolchain or simavr (build.sh exits 3) or the sketch
-# (exits 2) its one-line reason is printed and kept in build/firmware/skip-reason.txt, and the
-# firmware tests skip with it; any other failure of the build fails this script.
+# The real motor-board firmware (the stock one, and the project's in build/firmware/fishtail) and
+# its simulator for the tests (firmware/build.sh, into build/firmware), built once by `make test`
+# before pytest rather than by a test: the tests only look for what it built. Without the AVR
+# toolchain or simavr (build.sh exits 3) or the sketch (exits 2) its one-line reason is printed
+# and kept in build/firmware/skip-reason.txt, and the firmware tests skip with it; any other
+# failure of the build fails this script.
 # Output: one line; the build's own in log/firmware-build.log.
 set -uo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

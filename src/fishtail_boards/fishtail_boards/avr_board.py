@@ -43,6 +43,10 @@ BUILD_DIR = Path("build") / "firmware"
 ELF_NAME = "ROSArduinoBridge.elf"
 SIMULATOR_NAME = "avr_board"
 SYMBOLS_NAME = "symbols.txt"
+FUNCTIONS_NAME = "functions.txt"
+#: The project's firmware (firmware/fishtail.patch on the same sketch), in this folder of the
+#: build, with its own symbols and a link to the simulator (docs/firmware.md).
+PROJECT_FIRMWARE_DIR = "fishtail"
 #: Where the ATmega's SRAM appears in the ELF's addresses (avr-gcc's data-space offset).
 DATA_SPACE_OFFSET = 0x800000
 #: Offsets in the firmware's ``SetPointInfo`` (diff_controller.h): float target, long Encoder,
@@ -75,6 +79,20 @@ def firmware_variables(build_dir: Path | None = None) -> dict[str, tuple[int, in
     for line in (folder / SYMBOLS_NAME).read_text().splitlines():
         name, address, size = line.split()
         found[name] = (int(address, 16) - DATA_SPACE_OFFSET, int(size, 16))
+    return found
+
+
+def firmware_functions(build_dir: Path | None = None) -> dict[str, int]:
+    """The firmware's functions: (mangled) name -> byte address in flash, for --time-function.
+
+    From the ``functions.txt`` that ``make firmware`` writes with avr-nm; FileNotFoundError if
+    the build predates it.
+    """
+    folder = build_dir or default_build_dir()
+    found = {}
+    for line in (folder / FUNCTIONS_NAME).read_text().splitlines():
+        name, address, _ = line.split()
+        found[name] = int(address, 16)
     return found
 
 

@@ -8,10 +8,11 @@
   teardown.
 * ``firmware_build``: the real firmware and its simulator, built by ``make test``'s set-up
   (tools/test-firmware.sh); skips with one line saying why where they are not built.
-* ``either_board(encoder_offset=0)``: parametrised over the two boards, ``fake`` (the project's
-  emulation, a DC motor) and ``firmware`` (ROSArduinoBridge in simavr, the same DC motor), both
-  the Pololu 37D 30:1 with its 64-count encoder: a :class:`BoardUnderTest` (link, reset, the board's
-  own clock).
+  ``fishtail_build``: the same for the project's firmware (build/firmware/fishtail).
+* ``either_board(encoder_offset=0)``: parametrised over the boards, ``fake`` (the project's
+  emulation, a DC motor), ``firmware`` (ROSArduinoBridge in simavr, the same DC motor) and
+  ``fishtail`` (the project's firmware in simavr), all the Pololu 37D 30:1 with its 64-count
+  encoder: a :class:`BoardUnderTest` (link, reset, the board's own clock).
 * ``raw_port(path)``: the board's serial port in raw mode, one command and its reply at a time.
 * ``wait_until``, ``driver_run``, ``ros_probe``: :mod:`fishtail_testkit.driver_nodes`.
 """
@@ -35,7 +36,9 @@ from pathlib import Path
 import pytest
 
 from fishtail_boards.avr_board import (
+    PROJECT_FIRMWARE_DIR,
     SimulatedBoard,
+    built_artifacts,
     encoder_offset_pokes,
     firmware_variables,
 )
@@ -193,6 +196,18 @@ def firmware_build() -> Path:
     return built_firmware_or_skip()
 
 
+@pytest.fixture(scope="session")
+def fishtail_build(firmware_build: Path) -> Path:
+    """build/firmware/fishtail: the project's firmware and a link to the simulator; else skip."""
+    folder = firmware_build / PROJECT_FIRMWARE_DIR
+    if built_artifacts(folder) is None:
+        pytest.skip(
+            f"project firmware in simavr: nothing built in {folder} (make firmware builds it "
+            "when firmware/fishtail.patch applies to the sketch)"
+        )
+    return folder
+
+
 class BoardUnderTest:
     """A board under test on a pty at :attr:`link`, whichever it is.
 
@@ -300,9 +315,19 @@ def _dc_motors(count: int) -> list[DcChannelMotor]:
 
 # The firmware board is a simulator process, so its tests are integration tests (conftest.py at the
 # root marks the fixtures' users; this one is reached through getfixturevalue).
-@pytest.fixture(params=["fake", pytest.param("firmware", marks=pytest.mark.integration)])
+@pytest.fixture(
+    params=[
+        "fake",
+        pytest.param("firmware", marks=pytest.mark.integration),
+        pytest.param("fishtail", marks=pytest.mark.integration),
+    ]
+)
 def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]:
-    """``either_board(encoder_offset=0)``: the fake board, or the real firmware in simavr."""
+    """``either_board(encoder_offset=0)``: the fake board, or a firmware in simavr.
+
+    ``firmware`` is the stock ROSArduinoBridge, ``fishtail`` the project's (which keeps every
+    stock command and reply).
+    """
     started: list[BoardUnderTest] = []
 
     def start(encoder_offset: int = 0) -> BoardUnderTest:
@@ -313,7 +338,8 @@ def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]
                                 encoder_offset=encoder_offset, **POLOLU)  # fmt: skip
             board = FakeUnderTest(handle)
         else:
-            folder = request.getfixturevalue("firmware_build")
+            fixture = "firmware_build" if request.param == "firmware" else "fishtail_build"
+            folder = request.getfixturevalue(fixture)
             extra = encoder_offset_pokes(firmware_variables(folder), encoder_offset)
             with open(tmp_path / f"either{len(started)}.stderr", "wb") as stderr:
                 simulated = SimulatedBoard(
