@@ -271,6 +271,9 @@ WATCH_S = 60.0
 READ_PERIOD_S = 1.0
 #: How long the page may take to load and catch up before the minute starts.
 CATCH_UP_S = 120.0
+#: Caught up: this many reads in a row within the limit. One read can fall within it while the
+#: page is still taking in what it was sent on connecting (seen: 1.9 s, then 2.4 s).
+CAUGHT_UP_READS = 5
 
 
 @pytest.mark.slow
@@ -297,18 +300,23 @@ def test_the_web_viewer_in_headless_chromium_keeps_up_with_the_suite(
         browser.open(web_url)
         ros.wait_for_subscribers(TAIL_MARKERS.name, 1, timeout=60.0)  # the page connected
         # First it loads (tens of MB of WebAssembly) and takes in what it was sent on
-        # connecting; the minute starts once it is within the limit.
+        # connecting; the minute starts once it has stayed within the limit CAUGHT_UP_READS
+        # reads in a row.
         waiting: list[float | None] = []
         deadline = time.monotonic() + CATCH_UP_S
         while time.monotonic() < deadline:
             ros.spin_for(READ_PERIOD_S)
             newest = newest_while_spinning(ros, browser)
             waiting.append(None if newest is None else round(time.time() - newest, 1))
-            if waiting[-1] is not None and waiting[-1] < LATENCY_LIMIT_S:
+            recent = waiting[-CAUGHT_UP_READS:]
+            if len(recent) == CAUGHT_UP_READS and all(
+                lag is not None and lag < LATENCY_LIMIT_S for lag in recent
+            ):
                 break
         else:
             pytest.fail(
-                f"the page never came within {LATENCY_LIMIT_S:g} s of now in {CATCH_UP_S:g} s "
+                f"the page never stayed within {LATENCY_LIMIT_S:g} s of now for "
+                f"{CAUGHT_UP_READS} reads in {CATCH_UP_S:g} s "
                 f"(load average {os.getloadavg()[0]:.1f}); its lag each second: {waiting}"
             )
         began = time.monotonic()
