@@ -15,6 +15,7 @@ import pytest
 import fishtail_bringup.console
 from fishtail_testkit.console_runs import run_until
 from fishtail_testkit.firmware import built_firmware_or_skip
+from fishtail_testkit.steering_doc import documented_square_seconds
 
 RUN_TIMEOUT_S = 60.0
 RUN = [sys.executable, "-m", "fishtail_bringup.run"]
@@ -181,6 +182,42 @@ def test_the_suite_runs_on_the_firmware_in_simavr(ros_domain):
     assert carriers and carriers[-1] > 5.0, output  # turned, whatever pace the host kept
     assert "stop acknowledged by the board" in output, output
     assert "non-zero status" not in output and "killed" not in output, output
+
+
+#: A waypoint line of the console: which, how, where, and the time into the route.
+WAYPOINT = re.compile(
+    r"waypoint \((?P<x>[-\d.]+), (?P<y>[-\d.]+)\) (?P<how>reached|rounded) at "
+    r"\([-\d.]+, [-\d.]+\) m, (?P<into>[\d.]+) s into the route"
+)
+#: The console's status line: the fish's heading.
+HEADING = re.compile(r" heading +(?P<deg>[-+][\d.]+)°")
+
+
+def test_the_square_is_flown_round_without_a_loop_in_its_documented_time(ros_domain):
+    """``--square 2``, the whole suite (mechanism 1): every corner in turn, without a loop.
+
+    The route within 1.3 times docs/steering.md's closed-loop figure; the heading turning less
+    than a loop would add.
+    """
+    completed = run_until(
+        [*RUN, "--swim", "--square", "2"], lambda out: "route done" in out, 4.0 * RUN_TIMEOUT_S
+    )
+    output = completed.output
+    assert completed.returncode == 0 and completed.seen, output
+    waypoints = [match.groupdict() for match in WAYPOINT.finditer(output)]
+    corners = [(float(w["x"]), float(w["y"])) for w in waypoints]
+    assert corners == [(2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (0.0, 0.0)], output
+    assert waypoints[-1]["how"] == "reached", output
+    allowed_s = 1.3 * documented_square_seconds()["oscillatory"]
+    assert float(waypoints[-1]["into"]) <= allowed_s, output
+    # The status line comes once a second: the heading's changes between lines are well under
+    # 180 degrees, so unwrapped they add up to the turn. Round a square three corners turn the
+    # fish 270 degrees; a loop would add 360.
+    flown = output[output.index("goal (2.00, 0.00) m") : output.index("route done")]
+    headings = [float(match["deg"]) for match in HEADING.finditer(flown)]
+    pairs = zip(headings[:-1], headings[1:], strict=True)
+    steps = [(b - a + 180.0) % 360.0 - 180.0 for a, b in pairs]
+    assert sum(abs(step) for step in steps) < 360.0 + 180.0, output
 
 
 def child_processes(pid: int) -> list[tuple[int, str]]:

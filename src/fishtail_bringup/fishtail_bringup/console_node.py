@@ -100,6 +100,9 @@ class Console:
                 Odometry, FISH_ODOM.name, self._on_fish, subscriber_qos(FISH_ODOM)
             )
         self.route = route
+        #: The fish's odometry time [s] when the route's first goal was out: its start.
+        self.route_started_s: float | None = None
+        self.goal_sent = False
         self.goal_publisher = None
         if route is not None:
             from geometry_msgs.msg import PoseStamped
@@ -120,6 +123,7 @@ class Console:
         self.goal.header.stamp = self.node.get_clock().now().to_msg()
         self.goal.pose.position.x, self.goal.pose.position.y = goal
         self.goal_publisher.publish(self.goal)
+        self.goal_sent = True
 
     def _on_state(self, message) -> None:
         self.state = message
@@ -134,12 +138,19 @@ class Console:
             return
         reached = route.current
         position = message.pose.pose.position
+        stamp = message.header.stamp
+        now_s = stamp.sec + 1e-9 * stamp.nanosec
+        if self.route_started_s is None and self.goal_sent:
+            self.route_started_s = now_s
         how = route.update((position.x, position.y))
         if how is not None:
             assert reached is not None
+            started = self.route_started_s
+            into = "" if started is None else f", {now_s - started:.1f} s into the route"
             self.say(
                 f"fishtail-run: waypoint ({reached[0]:g}, {reached[1]:g}) {how} at "
-                f"({position.x:.3f}, {position.y:.3f})" + ("; route done" if route.finished else "")
+                f"({position.x:.3f}, {position.y:.3f}) m{into}"
+                + ("; route done" if route.finished else "")
             )
             self.send_goal()
 

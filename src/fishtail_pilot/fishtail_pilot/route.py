@@ -2,32 +2,36 @@
 
 Plain Python (no rclpy), so that the console's node and the closed loop without ROS follow a
 route by the same rule: the next waypoint becomes the goal once the fish is within the tolerance
-of the current one (when the pilot, with the same tolerance, reports it reached), or once it has
-passed a waypoint that is not the last close by, as a waypoint follower does at a corner it
-cannot turn onto: coming back to it would take a loop (docs/steering.md, "The square").
+of the current one (when the pilot, with the same tolerance, reports it reached), or, for a
+waypoint before the last, once it is inside a circle of acceptance round it as wide as the fish's
+tightest turn: from there it turns onto the next leg instead of overshooting the corner and
+looping back to it (docs/steering.md, "The square").
 """
 
 from __future__ import annotations
 
 import math
 
-#: A waypoint before the last counts as passed within this distance [m]: the fish is past the
-#: line through it across its leg and this close to it: the default fish's tightest turning
-#: radius (1.0 m, mechanism 1), inside which turning back to a corner takes a loop.
-PASS_WITHIN_M = 1.0
+#: The circle of acceptance round a waypoint before the last [m]: the default fish's tightest
+#: turning radius (1.0 m, mechanism 1). A fish that turns for the next waypoint this far out
+#: rounds the corner on its tightest circle; one that holds on to the corner overshoots it by
+#: that circle and the next corner can fall inside it.
+ACCEPTANCE_RADIUS_M = 1.0
 
 
 class GoalRoute:
-    """Waypoints visited in turn: the current one until the fish reaches or passes it.
+    """Waypoints visited in turn: the current one until the fish reaches or rounds it.
 
-    >>> route = GoalRoute([(1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], tolerance_m=0.2)
+    >>> route = GoalRoute([(2.0, 0.0), (2.0, 2.0), (0.0, 2.0)], tolerance_m=0.2)
     >>> route.current
-    (1.0, 0.0)
-    >>> route.update((0.9, 0.05)), route.current
-    ('reached', (1.0, 1.0))
-    >>> route.update((1.3, 1.2)), route.current
-    ('passed', (0.0, 1.0))
-    >>> route.update((0.0, 0.9)), route.current, route.finished
+    (2.0, 0.0)
+    >>> route.update((1.5, 0.0)), route.current
+    ('rounded', (2.0, 2.0))
+    >>> route.update((2.1, 1.9)), route.current
+    ('reached', (0.0, 2.0))
+    >>> route.update((0.5, 2.0)), route.finished
+    (None, False)
+    >>> route.update((0.1, 2.1)), route.current, route.finished
     ('reached', None, True)
     """
 
@@ -35,14 +39,13 @@ class GoalRoute:
         self,
         waypoints: list[tuple[float, float]],
         tolerance_m: float,
-        pass_within_m: float = PASS_WITHIN_M,
+        acceptance_radius_m: float = ACCEPTANCE_RADIUS_M,
     ) -> None:
-        """Start at the first waypoint; its leg starts where the fish is first seen."""
+        """The waypoints, the tolerance that reaches them, and the circle that rounds a corner."""
         self.waypoints = list(waypoints)
         self.tolerance_m = tolerance_m
-        self.pass_within_m = pass_within_m
+        self.acceptance_radius_m = acceptance_radius_m
         self.index = 0
-        self._leg_start: tuple[float, float] | None = None
 
     @property
     def current(self) -> tuple[float, float] | None:
@@ -55,31 +58,23 @@ class GoalRoute:
         return self.index >= len(self.waypoints)
 
     def update(self, position_m: tuple[float, float]) -> str | None:
-        """Move on if the current waypoint is reached or passed: ``"reached"``, ``"passed"``.
+        """Move on if the current waypoint is reached or rounded: ``"reached"``, ``"rounded"``.
 
-        None: still swimming to it (an unknown, NaN, position reaches and passes nothing).
+        None: still swimming to it (an unknown, NaN, position reaches and rounds nothing).
         """
         goal = self.current
         if goal is None:
             return None
-        if self._leg_start is None and all(map(math.isfinite, position_m)):
-            self._leg_start = (float(position_m[0]), float(position_m[1]))
-        gap_x, gap_y = position_m[0] - goal[0], position_m[1] - goal[1]
-        distance = math.hypot(gap_x, gap_y)
-        # Written as "within" so that NaN is neither reached nor passed.
+        distance = math.hypot(position_m[0] - goal[0], position_m[1] - goal[1])
+        # Written as "within" so that NaN is neither reached nor rounded.
         if distance <= self.tolerance_m:
-            return self._next(goal, "reached")
-        if self.index + 1 < len(self.waypoints) and distance <= self.pass_within_m:
-            start = self._leg_start
-            assert start is not None  # a finite distance comes from a finite position
-            leg_x, leg_y = goal[0] - start[0], goal[1] - start[1]
-            if gap_x * leg_x + gap_y * leg_y > 0.0:
-                return self._next(goal, "passed")
+            return self._next("reached")
+        if self.index + 1 < len(self.waypoints) and distance <= self.acceptance_radius_m:
+            return self._next("rounded")
         return None
 
-    def _next(self, goal: tuple[float, float], how: str) -> str:
+    def _next(self, how: str) -> str:
         self.index += 1
-        self._leg_start = goal
         return how
 
 

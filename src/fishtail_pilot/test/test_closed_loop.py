@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import functools
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,14 +21,12 @@ from fishtail_pilot.route import GoalRoute, square_route
 from fishtail_pilot.steering import steering_from_values
 from fishtail_plant.values import fish_from_values, tail_from_values
 from fishtail_testkit.closed_loop import LoopRun, fly, follow
+from fishtail_testkit.steering_doc import MECHANISMS, documented_square_seconds
 
 #: Each closed-loop flight takes 2-5 s (make check leaves them to make test).
 pytestmark = pytest.mark.slow
 
 SAMPLE_RATE_HZ = 200.0
-MECHANISMS = ("oscillatory", "undulatory")
-#: The closed-loop table whose square row the square's test holds the pilot to.
-STEERING_DOC = Path(__file__).resolve().parents[3] / "docs" / "steering.md"
 SQUARE_SIDE_M = 2.0
 
 
@@ -129,18 +126,6 @@ def test_the_pivot_actuator_turns_the_fish_left_for_a_positive_yaw_rate(mechanis
     assert np.all(loop.modulation_depth == 0.0)
     # The actuator moved S forwards (a negative shift turns these tails left).
     assert loop.pivot_shift_m[-1] < 0.0
-
-
-def documented_square_seconds() -> dict[str, float]:
-    """The 2 m square's times in docs/steering.md's closed-loop table, by mechanism."""
-    for line in STEERING_DOC.read_text(encoding="utf-8").splitlines():
-        if line.startswith("| 2 m square"):
-            cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
-            return {
-                mechanism: float(cell.removesuffix(" s"))
-                for mechanism, cell in zip(MECHANISMS, cells[1:3], strict=True)
-            }
-    raise AssertionError(f"no '| 2 m square' row in {STEERING_DOC}")
 
 
 def distance_to_square_m(x_m, y_m, side_m: float):

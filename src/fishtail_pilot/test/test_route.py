@@ -1,54 +1,56 @@
-"""The route's rule: a waypoint is reached within the tolerance, or passed close by on its leg."""
+"""The route's rule: a waypoint is reached within the tolerance, or rounded in its circle."""
 
 from __future__ import annotations
 
 import math
 
-from fishtail_pilot.route import PASS_WITHIN_M, GoalRoute, square_route
+import pytest
+
+from fishtail_pilot.route import ACCEPTANCE_RADIUS_M, GoalRoute, square_route
 
 TOLERANCE_M = 0.2
 
 
-def test_a_corner_passed_close_by_is_left_for_the_next():
+def test_a_corner_is_rounded_once_the_fish_is_inside_its_circle_of_acceptance():
     route = GoalRoute(square_route(2.0), TOLERANCE_M)
-    assert route.update((0.0, 0.0)) is None  # the first leg starts here, along +x
-    # Abeam of (2, 0), 0.3 m out: not yet past the line through it across the leg.
-    assert route.update((1.95, -0.3)) is None
-    assert route.update((2.1, -0.3)) == "passed"
+    just_outside = 2.0 - ACCEPTANCE_RADIUS_M - 0.01
+    assert route.update((just_outside, 0.0)) is None
+    assert route.current == (2.0, 0.0)
+    # From any side: the circle does not depend on where the fish came from.
+    assert route.update((2.0 + 0.6, -0.6)) == "rounded"
     assert route.current == (2.0, 2.0)
 
 
-def test_a_corner_is_not_passed_from_afar_nor_before_it():
-    route = GoalRoute(square_route(2.0), TOLERANCE_M)
-    route.update((0.0, 0.0))
-    assert route.update((2.0 + PASS_WITHIN_M, 0.1)) is None  # past it, but too far off
-    assert route.update((1.7, 0.0)) is None  # 0.3 m short of it, on the leg
-    assert route.current == (2.0, 0.0)
-
-
-def test_the_leg_to_a_corner_starts_at_the_corner_before():
-    route = GoalRoute(square_route(2.0), TOLERANCE_M)
-    route.update((0.0, 0.0))
+def test_a_corner_within_the_tolerance_is_reached():
+    route = GoalRoute(square_route(2.0), TOLERANCE_M, acceptance_radius_m=0.0)
+    assert route.update((1.7, 0.0)) is None
     assert route.update((1.9, 0.05)) == "reached"
-    # The leg (2, 0) -> (2, 2) points along +y: beside the corner at y = 2.1 is past it,
-    # though the fish came from the right.
-    assert route.update((2.3, 1.9)) is None
-    assert route.update((2.3, 2.1)) == "passed"
+    assert route.current == (2.0, 2.0)
 
 
 def test_the_last_waypoint_must_be_reached():
     route = GoalRoute([(1.0, 0.0)], TOLERANCE_M)
-    route.update((0.0, 0.0))
-    assert route.update((1.1, 0.3)) is None
+    assert route.update((1.1, 0.3)) is None  # inside the circle of acceptance, not the tolerance
     assert not route.finished
     assert route.update((1.1, 0.1)) == "reached"
     assert route.finished and route.current is None
     assert route.update((1.0, 0.0)) is None
 
 
-def test_an_unknown_position_reaches_and_passes_nothing():
+def test_the_square_ends_where_it_starts_and_each_corner_waits_for_the_one_before():
     route = GoalRoute(square_route(2.0), TOLERANCE_M)
-    assert route.update((math.nan, math.nan)) is None
-    route.update((0.0, 0.0))
-    assert route.update((math.nan, 0.0)) is None
+    # At the start, which is also the last corner: nothing while three others come first.
+    assert route.update((0.0, 0.0)) is None
+    # 0.9 m short of each corner on its leg rounds it; the start again is 0.9 m short: not yet.
+    for short_of_corner in [(1.1, 0.0), (2.0, 1.1), (0.9, 2.0)]:
+        assert route.update(short_of_corner) == "rounded"
+    assert route.update((0.0, 0.9)) is None
+    assert route.update((0.0, 0.15)) == "reached"
+    assert route.finished
+
+
+@pytest.mark.parametrize("position", [(math.nan, math.nan), (math.nan, 0.0), (2.0, math.inf)])
+def test_an_unknown_position_reaches_and_rounds_nothing(position):
+    route = GoalRoute(square_route(2.0), TOLERANCE_M)
+    assert route.update(position) is None
     assert route.current == (2.0, 0.0)
