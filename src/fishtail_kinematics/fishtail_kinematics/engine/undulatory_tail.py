@@ -6,6 +6,7 @@ docs/kinematics.md ("Mechanism 2").
 
 from __future__ import annotations
 
+import bisect
 import copy
 import math
 from typing import cast
@@ -54,11 +55,14 @@ from fishtail_kinematics.engine.tail_base import (
     check_pivot_shift,
 )
 
-# Samples of the continuation sweep that validates mechanism 2 and seeds its Newton solver.
+# Samples of the continuation sweep that validates mechanism 2 and seeds its Newton solver. The
+# seed interpolates them linearly: within about 1e-7 m of the branch's root on the report's
+# geometry (h^2/8 of AS's curvature), so two Newton steps reach rounding level, and never farther
+# from it than the branch bends between two samples, so the solve stays on the branch (a single
+# polynomial over the swing, fitted to the same samples, was up to 1 cm off on random designs).
 _CONTINUATION_SAMPLES = 2001
-# A degree-10 seed is within ~1e-12 m of the root on the report's geometry, so one Newton step
-# reaches rounding level; more steps run only where the closure check asks for them.
-_SEED_POLYNOMIAL_DEGREE = 10
+# Samples of a shifted swing's branch the seed keeps (the sweep's own steps, at most this many).
+_SHIFTED_SEED_SAMPLES = 4096
 # The feasible pivot shifts of mechanism 2: grid steps from zero to each end of the drive's
 # interval, and the bisection's tolerance where the second loop first fails.
 _RANGE_GRID = 64
@@ -72,8 +76,8 @@ _LIMITS = (
 class UndulatoryTail(Tail):
     """Mechanism 2: the drive of mechanism 1 plus the slotted link AV and the tail VT.
 
-    The loop A-U-V-W is solved for AS by Newton's method, seeded by a polynomial in theta3 fitted
-    on construction to a continuation sweep from the straight pose; construction therefore also
+    The loop A-U-V-W is solved for AS by Newton's method, seeded by interpolating in theta3 a
+    continuation sweep from the straight pose made on construction; construction therefore also
     proves that the branch exists over the whole swing.
 
     Raises:
@@ -194,7 +198,7 @@ class UndulatoryTail(Tail):
         tail._shifted_geometry = None
         tail._drive = drive
         tail._OS = unshifted._OS + shift
-        tail._set_seed(*unshifted._sweep().samples(low, high))
+        tail._set_seed(*unshifted._sweep().samples(low, high, _SHIFTED_SEED_SAMPLES))
         return tail
 
     def _arm_swing(self, drive: OscillatoryTail) -> tuple[float, float]:
@@ -236,17 +240,34 @@ class UndulatoryTail(Tail):
         half = _CONTINUATION_SAMPLES // 2
         sweeps = (np.linspace(0.0, theta3_low, half + 1), np.linspace(0.0, theta3_high, half + 1))
         thetas, solutions = [], []
-        for sweep in sweeps:
+        for first, sweep in enumerate(sweeps):
             a = self.straight_slider_a_distance
-            for theta3 in sweep:
+            # The straight pose once: the second sweep starts from it again.
+            for theta3 in sweep[first:]:
                 a = self._pose_on_branch(float(theta3), a)
                 thetas.append(theta3)
                 solutions.append(a)
         self._set_seed(np.array(thetas), np.array(solutions))
 
     def _set_seed(self, arm_angles: FloatArray, slider_distances: FloatArray) -> None:
-        self._seed = np.polyfit(arm_angles, slider_distances, _SEED_POLYNOMIAL_DEGREE)
-        self._seed_coefficients = tuple(float(c) for c in self._seed)
+        order = np.argsort(arm_angles, kind="stable")
+        self._seed_angles = np.ascontiguousarray(arm_angles[order])
+        self._seed_distances = np.ascontiguousarray(slider_distances[order])
+        # The scalar path's copies: bisect and float arithmetic on lists beat numpy per call.
+        self._seed_angle_list = self._seed_angles.tolist()
+        self._seed_distance_list = self._seed_distances.tolist()
+
+    def _seed_at(self, theta3: float) -> float:
+        """The seed AS at one arm angle: np.interp's value (its formula), from the lists."""
+        angles, distances = self._seed_angle_list, self._seed_distance_list
+        if theta3 <= angles[0]:
+            return distances[0]
+        if theta3 >= angles[-1]:
+            return distances[-1]
+        right = bisect.bisect_right(angles, theta3)
+        left = right - 1
+        slope = (distances[right] - distances[left]) / (angles[right] - angles[left])
+        return slope * (theta3 - angles[left]) + distances[left]
 
     def _pose_on_branch(self, theta3: float, a: float) -> float:
         """AS for SW at ``theta3`` from the body axis, continued from the nearby AS = ``a``.
@@ -334,9 +355,7 @@ class UndulatoryTail(Tail):
         # The loop turns with SW's angle to the body axis (theta3 + the swing bias).
         theta3 = cast(float, d.fin_angle)
         cos3, sin3 = math.cos(theta3), math.sin(theta3)
-        a = 0.0
-        for coefficient in self._seed_coefficients:
-            a = a * theta3 + coefficient
+        a = self._seed_at(theta3)
         su, sw, vw = self._SU, self._SW, self._VW
         a, au, cos4, sin4, ex, ey, residual, _, closed = loop_closure(
             a, su * cos3, su * sin3, sw * cos3, sw * sin3, self._AV, vw * vw,
@@ -359,7 +378,7 @@ class UndulatoryTail(Tail):
         self, d: OscillatoryState, cos3: FloatArray, sin3: FloatArray
     ) -> UndulatoryState:
         # cos3, sin3 and the seed's variable are those of SW's angle to the body axis.
-        a = cast(FloatArray, np.polyval(self._seed, d.fin_angle))
+        a = np.interp(d.fin_angle, self._seed_angles, self._seed_distances)
         residual, slope = self._residual_and_slope(a, cos3, sin3)
         step = residual / slope
         for _ in range(LOOP_NEWTON_STEPS):

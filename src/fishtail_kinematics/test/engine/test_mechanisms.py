@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import re
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -381,6 +382,39 @@ def test_undulatory_agrees_with_fsolve(lengths, oracle):
         strict=True,
     ):
         assert np.abs(getattr(state, field) - expected).max() < 1e-9, field
+
+
+def test_undulatory_stays_on_the_straight_pose_s_branch_for_random_designs(oracle):
+    """Random lengths, RS off the symmetric value: the oracle's branch at every angle, both paths.
+
+    Lengths within 30 % of the report's; the oracle continues the loop from the straight pose.
+    """
+    rng = np.random.default_rng(20261203)
+    base = UndulatoryGeometry()
+    names = ("ring_radius_m", "crank_link_m", "rocker_link_m", "pivot_offset_m", "pin_offset_m",
+             "swing_arm_m", "slotted_link_m", "fin_joint_offset_m", "fin_link_m")  # fmt: skip
+    checked = 0
+    while checked < 8:
+        lengths = {name: getattr(base, name) * rng.uniform(0.7, 1.3) for name in names}
+        try:
+            tail = UndulatoryTail(UndulatoryGeometry(**lengths))
+        except (AssemblyError, InvalidLengthError, PinOffsetError):
+            continue
+        checked += 1
+        state = tail.solve(np.linspace(0.0, TWO_PI, 361))
+        g = SimpleNamespace(
+            SU=lengths["pin_offset_m"], SW=lengths["swing_arm_m"],
+            AV=lengths["slotted_link_m"], VW=lengths["fin_joint_offset_m"],
+        )  # fmt: skip
+        # theta3 moves continuously round the revolution: the oracle follows it from straight.
+        _, _, slider, theta5 = oracle.solve_undulatory(np.asarray(state.theta3), g)
+        assert np.abs(np.asarray(state.slider_a_distance) - slider).max() < 1e-9, lengths
+        assert np.abs(np.asarray(state.theta5) - theta5).max() < 1e-8, lengths
+        for angle in (0.3, 2.0, 4.5):
+            one = tail.solve(angle)
+            assert one.slider_a_distance == pytest.approx(
+                float(np.asarray(tail.solve(np.array([angle])).slider_a_distance)[0]), abs=1e-15
+            )
 
 
 def test_pin_offset_limits():
