@@ -226,19 +226,22 @@ fi
 # --- 6. the swimming integrator, compiled once ------------------------------------------------
 # The simulator's RK4 loop is compiled by numba (10-20 s on 2 cores) and cached on disk, beside
 # fused.py in src/ (the symlinked build/ path leads there) or under NUMBA_CACHE_DIR; the same run
-# compiles the engine's batch pass (drive_pass_numba.py) and the synthesis' cycle kernel
-# (cycle_kernel.py). Done here, so that the first `make run` swims at once instead of compiling
-# while the motor turns. numba reloads the caches while their sources (those files and the
+# compiles the engine's batch pass (drive_pass_numba.py) and the synthesis' cycle kernels
+# (cycle_kernel.py, and loop_kernel.py for mechanism 2, which compiles cycle_kernel's shared
+# pieces and the engine's loop_pose.py into its own). Done here, so that the first `make run`
+# swims at once instead of compiling while the motor turns. numba reloads the caches while their sources (those files and the
 # formulas they compile) keep their size and mtime, so the stamp hashes those, the cache
 # location and the caches' index files (a deleted cache is compiled again).
 FUSED=src/fishtail_plant/fishtail_plant/fish/fused.py
 COMPILED_SOURCES=(
   "$FUSED"
   src/fishtail_plant/fishtail_plant/fish/cycle_kernel.py
+  src/fishtail_plant/fishtail_plant/fish/loop_kernel.py
   src/fishtail_plant/fishtail_plant/fish/formulas.py
   src/fishtail_plant/fishtail_plant/fish/figures.py
   src/fishtail_plant/fishtail_plant/fish/tail_drive.py
   src/fishtail_kinematics/fishtail_kinematics/engine/oscillatory_tail.py
+  src/fishtail_kinematics/fishtail_kinematics/engine/loop_pose.py
   src/fishtail_kinematics/fishtail_kinematics/engine/drive_pass_numba.py
 )
 integrator_key() {
@@ -248,6 +251,7 @@ integrator_key() {
     find "${NUMBA_CACHE_DIR:-$(dirname "$FUSED")/__pycache__}" \
       "${NUMBA_CACHE_DIR:-src/fishtail_kinematics/fishtail_kinematics/engine/__pycache__}" \
       \( -name 'fused._rk4_steps-*.nbi' -o -name 'cycle_kernel._held_cycles-*.nbi' \
+      -o -name 'loop_kernel._follow_all-*.nbi' -o -name 'loop_kernel._held_loop_cycles-*.nbi' \
       -o -name 'drive_pass_numba._rates-*.nbi' \) \
       -exec stat -c '%n %s %Y' {} + 2>/dev/null | LC_ALL=C sort
   } | sha256sum | cut -c1-32

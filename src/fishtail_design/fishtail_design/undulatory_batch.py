@@ -206,7 +206,7 @@ class UndulatoryBatch:
         count = self.size
         speed = np.array(np.broadcast_to(np.asarray(carrier_speed_rad_s, dtype=float), count))
         constant_carrier_speed(speed)  # refuses what the numpy path refuses
-        table = cycle_kernel._table([getattr(fish, name) for name in FISH_COLUMNS], count)
+        table = cycle_kernel.design_table([getattr(fish, name) for name in FISH_COLUMNS], count)
         has_chord = bool(np.any(np.asarray(fish.fin_chord_m) > 0.0))
         return loop_kernel.held_loop_cycles(
             self.drive_table, self.loop_table, self.slider, table, speed, fish.has_fin_drag,

@@ -19,6 +19,12 @@ Numba is optional (:data:`AVAILABLE`); without it :func:`held_cycles` returns No
 use numpy. The compiled kernel is cached like the integrator's (:mod:`~fishtail_plant.fish.fused`,
 whose ``python -m`` run at ``make setup`` compiles it too), its cache keyed to the sources of the
 formulas it compiles.
+
+The kernel's pieces that do not depend on the mechanism are public, for
+:mod:`~fishtail_plant.fish.loop_kernel` (mechanism 2) to compile into its own kernel:
+:func:`compiled_drive_pose`, the beat's table of :data:`TIP_ROWS` rows, :func:`balance_speed`,
+:func:`towed_tail`, :func:`mean_in_order` and :func:`design_table`. A change to them changes
+this file, to which both kernels' caches are keyed.
 """
 
 from __future__ import annotations
@@ -78,7 +84,8 @@ _formula: Compiler = numba.njit(nogil=True, error_model="numpy") if AVAILABLE el
 _kernel_jit: Compiler = (
     numba.njit(cache=True, nogil=True, error_model="numpy") if AVAILABLE else _identity
 )
-_drive_pose = _formula(drive_pose)
+#: The engine's pose of the drive (drive_pose), compiled to be called from a kernel.
+compiled_drive_pose = _formula(drive_pose)
 _tip_force = _formula(formulas.tip_force)
 _fin_drag = _formula(formulas.fin_drag)
 _fin_recoil = _formula(formulas.fin_recoil)
@@ -93,11 +100,12 @@ _recoil_power = _formula(formulas.recoil_power)
 #
 # The beat of a design, rows of ``tip`` (samples along the row): the tip's x, y, x_dot, y_dot,
 # cos th, sin th, th_dot, then the accelerations of the tip (x, y) and of th.
-_TIP_ROWS = 10
+#: Rows of a design's beat table (``tip``), which balance_speed and towed_tail read.
+TIP_ROWS = 10
 
 
 @_formula
-def _in_order(values: Any) -> float:
+def mean_in_order(values: Any) -> float:
     """The mean of ``values``, added in order."""
     total = 0.0
     for value in values:
@@ -121,7 +129,7 @@ def _beat(
     squared = omega**2
     # Two loops, so that each is straight code that LLVM vectorises.
     for k in range(tip.shape[1]):
-        pose = _drive_pose(
+        pose = compiled_drive_pose(
             cos_carrier[k], sin_carrier[k], omega, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7],
             c[8], c[9], c[10], c[11], c[12], c[13], c[14], c[15],
         )  # fmt: skip
@@ -132,12 +140,12 @@ def _beat(
         return
     for k in range(tip.shape[1]):
         cos_k, sin_k = cos_carrier[k], sin_carrier[k]
-        ahead = _drive_pose(
+        ahead = compiled_drive_pose(
             cos_k * cos_step - sin_k * sin_step, sin_k * cos_step + cos_k * sin_step, 1.0,
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13],
             c[14], c[15],
         )  # fmt: skip
-        behind = _drive_pose(
+        behind = compiled_drive_pose(
             cos_k * cos_step + sin_k * sin_step, sin_k * cos_step - cos_k * sin_step, 1.0,
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13],
             c[14], c[15],
@@ -155,7 +163,7 @@ def _push_lighthill(f: Any, tip: Any, speed: float, out: Any) -> float:
             f[0], f[1], tip[0, k], tip[1, k], tip[2, k], tip[3, k], tip[4, k], tip[5, k], speed,
             0.0, 0.0,
         )[0]  # fmt: skip
-    mean: float = _in_order(out)
+    mean: float = mean_in_order(out)
     return mean
 
 
@@ -167,7 +175,7 @@ def _push_plate(f: Any, tip: Any, speed: float, out: Any) -> float:
             f[3], f[2], f[1], tip[0, k], tip[1, k], tip[2, k], tip[3, k], tip[4, k], tip[5, k],
             tip[6, k], speed, 0.0, 0.0,
         )[0]  # fmt: skip
-    mean: float = _in_order(out)
+    mean: float = mean_in_order(out)
     return mean
 
 
@@ -210,8 +218,12 @@ def _illinois(
 
 
 @_formula
-def _balance(f: Any, tip: Any, has_plate: bool, out: Any) -> float:
-    """figures.steady_surge_speed (not strict) for one design, from its beat's samples."""
+def balance_speed(f: Any, tip: Any, has_plate: bool, out: Any) -> float:
+    """figures.steady_surge_speed (not strict) for one design, from its beat's samples.
+
+    ``f``: the design's row of the fish table (:data:`FISH_COLUMNS`); ``tip``: its beat,
+    :data:`TIP_ROWS` rows by samples; ``out``: scratch, one value per sample. NaN: no balance.
+    """
     at_rest = _push_lighthill(f, tip, 0.0, out)
     ahead = _push_lighthill(f, tip, 1.0, out)
     astern = _push_lighthill(f, tip, -1.0, out)
@@ -241,10 +253,14 @@ def _balance(f: Any, tip: Any, has_plate: bool, out: Any) -> float:
 
 
 @_formula
-def _towed(
+def towed_tail(
     f: Any, tip: Any, speed: float, has_plate: bool, has_chord: bool, push: Any, power: Any
 ) -> None:
-    """figures.held_tail at u = ``speed``, v = r = 0: the push and the power at each sample."""
+    """figures.held_tail at u = ``speed``, v = r = 0: the push and the power at each sample.
+
+    ``f`` and ``tip`` as :func:`balance_speed` takes them; ``push`` and ``power`` (one value per
+    sample) receive the tail's x force and power.
+    """
     for k in range(tip.shape[1]):
         force = _tip_force(
             f[0], f[1], tip[0, k], tip[1, k], tip[2, k], tip[3, k], tip[4, k], tip[5, k], speed,
@@ -279,7 +295,7 @@ def _held_cycles(
     balance: Any, push: Any, power: Any, excursion: Any,
 ) -> None:  # fmt: skip
     samples = power.shape[0]
-    tip = np.empty((_TIP_ROWS, samples))
+    tip = np.empty((TIP_ROWS, samples))
     cos_carrier, sin_carrier = np.empty(samples), np.empty(samples)
     forces, loads = np.empty(samples), np.empty(samples)
     last_omega = last_phase = math.nan
@@ -298,10 +314,10 @@ def _held_cycles(
         for k in range(1, samples):
             lowest, highest = min(lowest, tip[1, k]), max(highest, tip[1, k])
         excursion[design] = highest - lowest
-        speed = _balance(f, tip, has_plate, forces)
+        speed = balance_speed(f, tip, has_plate, forces)
         balance[design] = speed
-        _towed(f, tip, speed, has_plate, has_chord, forces, loads)
-        push[design] = _in_order(forces)
+        towed_tail(f, tip, speed, has_plate, has_chord, forces, loads)
+        push[design] = mean_in_order(forces)
         for k in range(samples):
             power[k, design] = loads[k]
 
@@ -311,7 +327,7 @@ _KERNEL: Any = _held_cycles
 key_cache_to_sources(_KERNEL, formulas, oscillatory_tail, figures, tail_drive)
 
 
-def _table(values: list[Any], count: int) -> FloatArray:
+def design_table(values: list[Any], count: int) -> FloatArray:
     """Per-design values (floats or (N,) arrays) as a C-contiguous (N, columns) table."""
     table = np.empty((count, len(values)))
     for column, value in enumerate(values):
@@ -340,8 +356,8 @@ def held_cycles(
     speed = np.array(np.broadcast_to(np.asarray(carrier_speed_rad_s, dtype=float), count))
     tail_drive.constant_carrier_speed(speed)  # refuses what the numpy path refuses
     c = batch.constants
-    linkages = _table([*drive_coefficients(c), c.phase_rad], count)
-    parameters = _table([getattr(fish, name) for name in FISH_COLUMNS], count)
+    linkages = design_table([*drive_coefficients(c), c.phase_rad], count)
+    parameters = design_table([getattr(fish, name) for name in FISH_COLUMNS], count)
     has_chord = bool(np.any(np.asarray(fish.fin_chord_m) > 0.0))
     result = HeldCycles(np.empty(count), np.empty(count), np.empty((samples, count)),
                         np.empty(count))  # fmt: skip

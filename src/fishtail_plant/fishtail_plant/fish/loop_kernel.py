@@ -38,13 +38,13 @@ from fishtail_kinematics.engine.loop_pose import (
 from fishtail_kinematics.engine.oscillatory_tail import drive_coefficients
 from fishtail_plant.fish import cycle_kernel, figures, formulas, tail_drive
 from fishtail_plant.fish.cycle_kernel import (
-    _TIP_ROWS,
+    TIP_ROWS,
     HeldCycles,
     KernelPreparation,
-    _balance,
-    _drive_pose,
-    _in_order,
-    _towed,
+    balance_speed,
+    compiled_drive_pose,
+    mean_in_order,
+    towed_tail,
 )
 from fishtail_plant.fish.fish import FloatArray
 from fishtail_plant.fish.fused import AVAILABLE, Compiler, _identity
@@ -84,7 +84,7 @@ _loop_tip = _formula(loop_tip)
 def drive_table(batch: OscillatoryBatch) -> FloatArray:
     """The drive's coefficient table (:data:`cycle_kernel.LINKAGE_COLUMNS`), a row per design."""
     c = batch.constants
-    return cycle_kernel._table([*drive_coefficients(c), c.phase_rad], batch.size)
+    return cycle_kernel.design_table([*drive_coefficients(c), c.phase_rad], batch.size)
 
 
 def loop_table(
@@ -93,7 +93,7 @@ def loop_table(
 ) -> FloatArray:  # fmt: skip
     """The loop table (:data:`LOOP_COLUMNS`) of the drive ``batch`` (SW its tail link)."""
     c, vw = batch.constants, fin_joint_offset_m
-    return cycle_kernel._table([
+    return cycle_kernel.design_table([
         pin_offset_m, c.tail_link_m, slotted_link_m, vw, np.asarray(fin_link_m) - vw,
         c.pivot_offset_m, np.asarray(slotted_link_m) + vw - c.tail_link_m,
         residual_tolerance(np.asarray(vw, dtype=float)), batch.theta2_min - batch.theta2_mid,
@@ -149,7 +149,7 @@ def _follow(drive: Any, loop: Any, nodes: Any, stroke: Any) -> int:
     step = _TWO_PI / samples
     for k in range(samples):
         carrier = k * step + drive[16]
-        pose = _drive_pose(
+        pose = compiled_drive_pose(
             math.cos(carrier), math.sin(carrier), 1.0, drive[0], drive[1], drive[2], drive[3],
             drive[4], drive[5], drive[6], drive[7], drive[8], drive[9], drive[10], drive[11],
             drive[12], drive[13], drive[14], drive[15],
@@ -224,7 +224,7 @@ def follow_branches(
 def _loop_sample(drive: Any, loop: Any, cos_carrier: float, sin_carrier: float, omega: float,
                  seed: float) -> Any:  # fmt: skip
     """The tip's x, y, x_dot, y_dot, cos and sin theta5, theta5_dot, and whether it closed."""
-    pose = _drive_pose(
+    pose = compiled_drive_pose(
         cos_carrier, sin_carrier, omega, drive[0], drive[1], drive[2], drive[3], drive[4],
         drive[5], drive[6], drive[7], drive[8], drive[9], drive[10], drive[11], drive[12],
         drive[13], drive[14], drive[15],
@@ -277,7 +277,7 @@ def _held_loop_cycles(
     has_chord: bool, balance: Any, push: Any, power: Any, excursion: Any,
 ) -> None:  # fmt: skip
     samples, branch = power.shape[0], slider.shape[0]
-    tip = np.empty((_TIP_ROWS, samples))
+    tip = np.empty((TIP_ROWS, samples))
     cos_carrier, sin_carrier = np.empty(samples), np.empty(samples)
     seeds = np.empty(samples, dtype=np.int64)
     forces, loads = np.empty(samples), np.empty(samples)
@@ -304,10 +304,10 @@ def _held_loop_cycles(
         for k in range(1, samples):
             lowest, highest = min(lowest, tip[1, k]), max(highest, tip[1, k])
         excursion[design] = highest - lowest
-        speed = _balance(f, tip, has_plate, forces)
+        speed = balance_speed(f, tip, has_plate, forces)
         balance[design] = speed
-        _towed(f, tip, speed, has_plate, has_chord, forces, loads)
-        push[design] = _in_order(forces)
+        towed_tail(f, tip, speed, has_plate, has_chord, forces, loads)
+        push[design] = mean_in_order(forces)
         for k in range(samples):
             power[k, design] = loads[k]
 

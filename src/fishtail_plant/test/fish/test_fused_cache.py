@@ -73,7 +73,7 @@ USES = textwrap.dedent(
     lengths = [np.full(2, value) for value in (0.08, 0.24, 0.2, 0.06)]
     table, loop = loop_kernel.drive_table(drive), loop_kernel.loop_table(drive, *lengths)
     status, stroke = loop_kernel.follow_branches(table, loop, drive.assembles, 64)
-    fish = cycle_kernel._table([getattr(FishParameters(), name)
+    fish = cycle_kernel.design_table([getattr(FishParameters(), name)
                                 for name in cycle_kernel.FISH_COLUMNS], 2)  # fmt: skip
     slider = stroke[loop_kernel.STROKE_FIELDS.index("slider_a_distance")]
     assert loop_kernel.held_loop_cycles(table, loop, slider, fish, np.ones(2), True, True,
