@@ -17,6 +17,7 @@ from collections.abc import Callable
 from typing import Protocol
 
 from fishtail_common.interface import Level
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,7 +66,18 @@ class MotorBackend(Protocol):
         """Connect; raise an exception naming the cause if the motor cannot be reached."""
 
     def set_speed(self, speed_rad_s: float) -> None:
-        """Command a carrier speed (>= 0, already validated by the node)."""
+        """Command a steady carrier speed (>= 0, already validated by the node)."""
+
+    def set_profile(self, profile: CarrierSpeedProfile, speed_rad_s: float) -> None:
+        """Command ``profile``, whose speed at the last angle measured is ``speed_rad_s``.
+
+        Unless :attr:`profile_on_board`, the node calls it again at every sample with the
+        profile's speed at the angle measured (it follows the profile on the host).
+        """
+
+    @property
+    def profile_on_board(self) -> bool:
+        """Whether the motor's board follows the profile in force by itself."""
 
     def read(self) -> EncoderSample | None:
         """The latest encoder sample, or None when none is available right now."""
@@ -160,6 +172,13 @@ class SimBackend:
         now = self._advance()
         motor = self.motor
         return EncoderSample(now, motor.measured_angle_rad(), motor.speed_rad_s, motor.effort_n_m)
+
+    def set_profile(self, profile: CarrierSpeedProfile, speed_rad_s: float) -> None:
+        """The model follows the speed the node computes at every sample."""
+        self.set_speed(speed_rad_s)
+
+    #: The node follows profiles for the model.
+    profile_on_board = False
 
     def stop(self) -> None:
         """Command zero speed."""

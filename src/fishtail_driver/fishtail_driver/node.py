@@ -1,7 +1,8 @@
 """Driver node: commands the carrier speed and publishes the encoder angle.
 
 The one node that owns the motor (through a backend of :mod:`fishtail_driver.backends`): it
-follows ``motor/cmd_speed`` or a ``motor/cmd_profile`` at every encoder sample, publishes
+follows ``motor/cmd_speed`` or a ``motor/cmd_profile`` at every encoder sample (or lets the
+motor board follow it, where its firmware can: docs/serial.md), publishes
 ``motor/joint_state`` stamped when the encoder was read, reports on ``/diagnostics``, and stops
 the motor from its own watchdog when commands stop and before it exits. All callbacks run on one
 thread, so the node's state needs no lock (the serial backend locks its own). Topics and
@@ -113,6 +114,7 @@ class DriverNode(SuiteNodeBase):
         self.watchdog_stops = 0
         self.watchdog_tripped = False
         self.phase_rebases_seen = 0
+        self.firmware_logged = ""  # the motor board's firmware, once logged
         self.publish_rate_hz = float(values["publish_rate_hz"])
         self.max_sample_rate_hz = self.backend.max_sample_rate_hz
         self.clock_mapping = ClockMapping()
@@ -258,7 +260,7 @@ class DriverNode(SuiteNodeBase):
         if self.watchdog_tripped:
             self.get_logger().info("commands resumed")
         self.watchdog_tripped = False
-        self.backend.set_speed(self.command.commanded_speed_rad_s)
+        self.backend.set_profile(self.command.profile, self.command.commanded_speed_rad_s)
 
     def _check_watchdog(self) -> None:
         if self.cmd_timeout_sec <= 0.0 or self.last_command_ns is None or self.watchdog_tripped:
@@ -297,8 +299,8 @@ class DriverNode(SuiteNodeBase):
             return
         # A modulated profile's speed at the angle just measured (None: a flat one, already sent).
         speed = self.command.follow(sample.angle_rad)
-        if speed is not None:
-            self.backend.set_speed(speed)
+        if speed is not None and not self.backend.profile_on_board:
+            self.backend.set_profile(self.command.profile, speed)
         stamp = self._stamp(sample.monotonic_s, self.stamps)
         if stamp is None:
             return  # counted: dropped_backward_stamps
@@ -320,6 +322,10 @@ class DriverNode(SuiteNodeBase):
 
     def _on_diagnostics(self) -> None:
         level, text, values = self.backend.status()
+        firmware = values.get("firmware", "")
+        if values.get("connected") == "true" and firmware != self.firmware_logged:
+            self.firmware_logged = firmware
+            self.get_logger().info(f"motor board on {self.backend.hardware_id}: {firmware}")
         rebases = int(values.get("phase_rebases", "0") or 0)
         if rebases > self.phase_rebases_seen:
             self.phase_rebases_seen = rebases

@@ -119,6 +119,10 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("serial_handshake_timeout_sec", 5.0, "serial: how long the board may take to "
                   "answer after the port opens (boards that reset on open boot for 1-2 s)", "s",
                   0.1, 60.0, read_only=True),
+    ParameterSpec("serial_profile_on_board", True, "serial: on the project's motor-board firmware "
+                  "(it answers 'v'), send a speed profile once ('f') and let the board follow it "
+                  "at every PID frame; false: follow it on the host with 'm' at every encoder "
+                  "sample, as on the stock firmware (docs/serial.md)", read_only=True),
     ParameterSpec("serial_stale_timeout_sec", 1.0, "serial: no valid reply for this long: "
                   "reconnect", "s", 0.1, 60.0, read_only=True),
     # The pivot actuator: a lead screw shifting the tail's pivot S along the body axis
@@ -230,6 +234,7 @@ def _serial_backend(
             max_speed_rad_s=float(values["max_speed_rad_s"]),
             handshake_timeout_s=float(values["serial_handshake_timeout_sec"]),
             stale_timeout_s=max(float(values["serial_stale_timeout_sec"]), 2.0 * read_timeout_s),
+            profile_on_board=bool(values["serial_profile_on_board"]),
         )
     )
 

@@ -1,6 +1,7 @@
 r"""ROSArduinoBridge serial protocol: a pure codec (no rclpy, no I/O).
 
-Encodes the firmware's commands (``e``, ``m``, ``r``, ``o``, ``u``, ``b``), splits the byte
+Encodes the firmware's commands (``e``, ``m``, ``r``, ``o``, ``u``, ``b``, and the project
+firmware's ``v``, ``f``, ``i``: firmware/CHANGES.md), splits the byte
 stream into reply lines (:class:`LineFramer`) and parses replies, raising :class:`ReplyError`
 with a countable ``kind`` and a precise ``reason`` for anything malformed; pure, so that it can be
 fuzzed and tested without a port. Speeds in ticks per PID frame:
@@ -35,6 +36,18 @@ AUTO_STOP_INTERVAL_MS = 2000
 MAX_ARGUMENT_CHARS = 15
 #: Longest reply line accepted by default (``-2147483648 -2147483648`` is 23 characters).
 MAX_REPLY_BYTES = 64
+#: The project firmware's argument buffer (``argv1``) holds this many characters (32 incl. NUL).
+MAX_PROFILE_ARGUMENT_CHARS = 31
+#: ``f``'s MEAN is in 1/64 ticks per PID frame (Q6), at most 32767.
+PROFILE_MEAN_SHIFT = 6
+PROFILE_MEAN_MAX = 32767
+#: ``f``'s DEPTH in thousandths, at most 900 (CarrierSpeedProfile's MAX_DEPTH 0.9).
+PROFILE_DEPTH_UNIT = 1000
+PROFILE_DEPTH_MAX = 900
+#: ``f``'s REV (encoder counts per carrier revolution): 1..65535 (the angle is 16-bit).
+PROFILE_REVOLUTION_MAX = 65535
+#: ``i``'s PID rate range [Hz].
+PID_RATE_MIN_HZ, PID_RATE_MAX_HZ = 1, 500
 
 OK_REPLY = "OK"
 INVALID_COMMAND_REPLY = "Invalid Command"
@@ -44,6 +57,8 @@ CHANNELS = ("left", "right")
 _INTEGER = r"-?(?:0|[1-9][0-9]{0,9})"
 _ENCODERS_RE = re.compile(rf"({_INTEGER}) ({_INTEGER})")
 _BAUD_RE = re.compile(r" ?([1-9][0-9]{1,7})")
+#: ``v``'s reply: "fishtail <version>" and key=value fields (unknown keys are for later versions).
+_CAPABILITIES_RE = re.compile(r"fishtail ([1-9][0-9]{0,4})((?: [a-z_]{1,16}=[0-9]{1,6})*)")
 
 
 class ReplyError(ValueError):
@@ -150,6 +165,49 @@ def encode_update_pid(kp: int, kd: int, ki: int, ko: int) -> bytes:
             f"buffer holds {MAX_ARGUMENT_CHARS} (overflow is undefined behaviour on the board)"
         )
     return f"u {argument}\r".encode("ascii")
+
+
+def encode_query_firmware() -> bytes:
+    """``v``: which firmware is this (the project's answers its capabilities; stock: Invalid)."""
+    return b"v\r"
+
+
+def _check_range(name: str, value: int, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+    if not low <= value <= high:
+        raise ValueError(f"{name} = {value} is outside [{low}, {high}]")
+    return value
+
+
+def encode_profile(mean_q6: int, depth_milli: int, phase_counts: int, revolution: int) -> bytes:
+    """``f MEAN:DEPTH:PHASE:REV``: the board follows this carrier speed profile itself.
+
+    ``mean_q6`` in 1/64 ticks per PID frame, ``depth_milli`` in thousandths, ``phase_counts`` the
+    fastest point's encoder count in [0, revolution), ``revolution`` counts per carrier turn.
+
+    Raises:
+        ValueError: a field outside the firmware's range (it would answer ERR).
+        TypeError: a field that is not an int.
+    """
+    _check_range("revolution", revolution, 1, PROFILE_REVOLUTION_MAX)
+    _check_range("mean (1/64 ticks per frame)", mean_q6, 0, PROFILE_MEAN_MAX)
+    _check_range("depth (thousandths)", depth_milli, 0, PROFILE_DEPTH_MAX)
+    _check_range("phase (counts)", phase_counts, 0, revolution - 1)
+    argument = f"{mean_q6}:{depth_milli}:{phase_counts}:{revolution}"
+    assert len(argument) <= MAX_PROFILE_ARGUMENT_CHARS  # 21 at most
+    return f"f {argument}\r".encode("ascii")
+
+
+def encode_pid_rate(rate_hz: int) -> bytes:
+    """``i HZ``: the project's firmware runs its PID at this rate (and stops the motors).
+
+    Raises:
+        ValueError: a rate outside [1, 500] Hz.
+        TypeError: a rate that is not an int.
+    """
+    _check_range("PID rate (Hz)", rate_hz, PID_RATE_MIN_HZ, PID_RATE_MAX_HZ)
+    return f"i {rate_hz}\r".encode("ascii")
 
 
 def channel_ticks(channel: str, ticks: int) -> tuple[int, int]:
@@ -326,3 +384,66 @@ def parse_baud(line: bytes) -> int:
         kind = "unexpected" if text == OK_REPLY or _ENCODERS_RE.fullmatch(text) else "garbled"
         raise ReplyError(kind, f"got {text[:40]!r} where {expected}", line)
     return int(match.group(1))
+
+
+@dataclasses.dataclass(frozen=True)
+class BoardCapabilities:
+    """What the project's firmware said to ``v``: its version, PID rate and frame, profile."""
+
+    version: int
+    pid_rate_hz: int
+    #: The PID frame in whole milliseconds (``1000 / pid_rate_hz`` in integers).
+    pid_frame_ms: int
+    #: Whether it follows a carrier speed profile (``f``).
+    profile: bool
+
+    def describe(self) -> str:
+        """E.g. ``fishtail 1, PID 30 Hz (33 ms), profile``."""
+        profile = "profile" if self.profile else "no profile"
+        rate = f"PID {self.pid_rate_hz} Hz ({self.pid_frame_ms} ms)"
+        return f"fishtail {self.version}, {rate}, {profile}"
+
+
+def parse_capabilities(line: bytes) -> BoardCapabilities | None:
+    """Parse the reply to ``v``: the project firmware's capabilities, None for stock firmware.
+
+    ``fishtail 1 pid_hz=30 pid_ms=33 profile=1``; fields this version does not know are ignored
+    (a later firmware may add some). The stock firmware answers ``Invalid Command``: None.
+
+    Raises:
+        ReplyError: anything else: ``garbled`` (not the format, a field missing or twice, a frame
+            that does not match the rate), ``out_of_range`` (a rate outside 1..500 Hz, a flag
+            not 0/1), ``unexpected`` (another command's reply), ``binary``, ``empty``.
+    """
+    expected = "the firmware's capabilities 'fishtail <version> pid_hz=.. pid_ms=.. profile=..'"
+    text = _text(line)
+    if text == INVALID_COMMAND_REPLY:
+        return None
+    match = _CAPABILITIES_RE.fullmatch(text)
+    if match is None:
+        stray = text == OK_REPLY or _ENCODERS_RE.fullmatch(text) or _BAUD_RE.fullmatch(text)
+        kind = "unexpected" if stray else "garbled"
+        raise ReplyError(kind, f"got {text[:40]!r} where {expected} was expected", line)
+    fields: dict[str, int] = {}
+    for item in match.group(2).split():
+        key, value = item.split("=")
+        if key in fields:
+            raise ReplyError("garbled", f"{key} twice in {text[:60]!r}", line)
+        fields[key] = int(value)
+    missing = [key for key in ("pid_hz", "pid_ms", "profile") if key not in fields]
+    if missing:
+        raise ReplyError("garbled", f"{', '.join(missing)} missing from {text[:60]!r}", line)
+    rate, frame, profile = fields["pid_hz"], fields["pid_ms"], fields["profile"]
+    if not PID_RATE_MIN_HZ <= rate <= PID_RATE_MAX_HZ:
+        raise ReplyError(
+            "out_of_range",
+            f"pid_hz={rate} is outside [{PID_RATE_MIN_HZ}, {PID_RATE_MAX_HZ}]",
+            line,
+        )
+    if frame != 1000 // rate:
+        raise ReplyError(
+            "garbled", f"pid_ms={frame} is not 1000 / pid_hz={rate} ({1000 // rate})", line
+        )
+    if profile not in (0, 1):
+        raise ReplyError("out_of_range", f"profile={profile} is neither 0 nor 1", line)
+    return BoardCapabilities(int(match.group(1)), rate, frame, bool(profile))

@@ -5,7 +5,9 @@ never wait for the device: they only exchange state with it under a lock. The th
 and reconnects with backoff, polls the encoder, sends and re-sends the speed (only while the node
 keeps commanding, so the board's own auto-stop takes over if the node hangs) and counts every
 fault. :meth:`SerialBackend.read` returns each new sample once, so ``motor/joint_state`` carries
-only real readings. Behaviour, faults and status: docs/serial.md.
+only real readings. At every connect it asks the board ``v``: the project's firmware follows a
+speed profile itself, sent as one ``f`` (:mod:`fishtail_driver.board_profile`); on the stock
+firmware the node follows it on the host with ``m``. Behaviour, faults and status: docs/serial.md.
 """
 
 from __future__ import annotations
@@ -18,12 +20,16 @@ from collections.abc import Callable
 
 from fishtail_common.interface import Level
 from fishtail_driver.backends import EncoderSample, StopOutcome
+from fishtail_driver.board_command import STOPPED, BoardCommand, CommandState, Pending
+from fishtail_driver.board_profile import ProfileFields, board_mode
 from fishtail_driver.encoder_tracking import EncoderTracker
 from fishtail_driver.protocol import (
     channel_ticks,
     encode_motor_speeds,
+    encode_query_firmware,
     encode_read_encoders,
     encode_update_pid,
+    parse_capabilities,
     parse_encoders,
     parse_ok,
 )
@@ -35,6 +41,7 @@ from fishtail_driver.serial_link import (
     SerialLink,
 )
 from fishtail_driver.status_counters import StatusCounters
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 
 
 class SerialBackend:
@@ -64,15 +71,9 @@ class SerialBackend:
         self._tracker = EncoderTracker(
             self.scale, config.channel, config.max_speed_rad_s, config.velocity_window_s
         )
-        # Command state (shared).
-        self._target_speed = 0.0
-        self._target_ticks = 0
-        self._acked_ticks: int | None = None
-        self._acked_at = -math.inf
+        # Command state (shared, locked by itself).
+        self._commands = CommandState(self.scale, self.counters, config.command_hold_s)
         self._motor_retry_at = -math.inf  # after a failed m, not before this (I/O thread only)
-        self._set_at = -math.inf  # time of the last set_speed() call
-        self._command_hold_s = config.command_hold_s
-        self._resends_paused = False
         # Sample state (shared).
         self._latest: EncoderSample | None = None
         self._latest_seq = 0
@@ -113,26 +114,29 @@ class SerialBackend:
         self._thread.start()
 
     def set_speed(self, speed_rad_s: float) -> None:
-        """Command a carrier speed; the I/O thread sends it at once and keeps it alive."""
-        ticks, clamped = self.scale.ticks_per_frame(speed_rad_s)
-        now = self._clock()
-        if clamped:
-            self.counters.count("clamped_commands")
-        with self._lock:
-            # Called at every sample while a speed profile runs: wake the I/O thread only when
-            # there is something new to send.
-            wake = ticks != self._target_ticks or self._resends_paused
-            self._target_speed = speed_rad_s
-            self._target_ticks = ticks
-            self._set_at = now
-        if wake:
-            self._wake.set()
+        """Command a steady carrier speed; the I/O thread sends it at once and keeps it alive."""
+        flat = STOPPED if not speed_rad_s > 0.0 else CarrierSpeedProfile(speed_rad_s)
+        self.set_profile(flat, speed_rad_s)
+
+    def set_profile(self, profile: CarrierSpeedProfile, speed_rad_s: float) -> None:
+        """Command ``profile``, whose speed at the carrier's last angle is ``speed_rad_s``.
+
+        On the project's firmware (:attr:`profile_on_board`) the board follows the profile: it
+        is sent as one ``f`` on every change. Otherwise the node follows it, calling this at
+        every sample with the speed at the angle measured, and the speed is sent with ``m``.
+        """
+        if self._commands.set_profile(profile, speed_rad_s, self._clock()):
+            self._wake.set()  # only when there is something new to send
+
+    @property
+    def profile_on_board(self) -> bool:
+        """Whether the board follows the profile in force (then the node need not follow it)."""
+        return self._commands.on_board
 
     @property
     def command_hold_s(self) -> float | None:
         """The current hold time of a non-zero speed (see :meth:`set_command_hold`)."""
-        with self._lock:
-            return self._command_hold_s
+        return self._commands.hold_s
 
     def set_command_hold(self, hold_s: float | None) -> None:
         """Re-send a non-zero speed only while the last set_speed() is at most ``hold_s`` old.
@@ -145,8 +149,7 @@ class SerialBackend:
         """
         if hold_s is not None and not hold_s > 0.0:
             raise ValueError(f"hold_s must be > 0 or None, got {hold_s!r}")
-        with self._lock:
-            self._command_hold_s = hold_s
+        self._commands.hold_s = hold_s
         self._wake.set()
 
     def stop(self) -> None:
@@ -170,9 +173,8 @@ class SerialBackend:
         Returns whether the board acknowledged the stop, or why it could not be sent.
         """
         thread = self._thread
+        self._commands.stop()
         with self._lock:
-            self._target_speed = 0.0
-            self._target_ticks = 0
             state = self._state
         self._closing.set()
         self._wake.set()
@@ -201,7 +203,6 @@ class SerialBackend:
         with self._lock:
             connected = self._connected
             state = self._state
-            acked = "" if self._acked_ticks is None else str(self._acked_ticks)
             rebase = self._last_rebase
             pair = "" if self._last_pair is None else " ".join(map(str, self._last_pair))
             values = {
@@ -211,18 +212,15 @@ class SerialBackend:
                 "state": self._state,
                 "connected": str(connected).lower(),
                 "board_baud": "" if board_baud is None else str(board_baud),
-                "target_speed_rad_s": f"{self._target_speed:.4f}",
-                "target_ticks_per_frame": str(self._target_ticks),
-                "acked_ticks_per_frame": acked,
                 "pid_frame_ms": str(self.scale.frame_ms),
                 "poll_rate_hz": f"{self._achieved_poll_rate(now):.1f}",
                 "encoder_counts": pair,
                 "continuous_counts": str(self._continuous_counts),
                 "last_fault": "" if fault is None else f"{fault[0]}: {fault[1]}",
                 "final_stop": self._final_stop,
-                "resends_paused": str(self._resends_paused).lower(),
                 "last_phase_rebase": "" if rebase is None else rebase[0],
             }
+        values.update(self._commands.status_values())
         for key in sorted(counts):
             values[key] = str(counts[key])
         if not connected:
@@ -304,6 +302,10 @@ class SerialBackend:
             update = self._link.exchange(encode_update_pid(*config.pid_gains), parse_ok)
             if not isinstance(update, Answered):
                 self.counters.count("pid_gains_not_acknowledged")
+        # Which firmware: the project's follows a profile itself (asked again at every connect).
+        query = self._link.exchange(encode_query_firmware(), parse_capabilities)
+        answer = query.value if isinstance(query, Answered) else f"{query.kind}: {query.reason}"
+        self._commands.set_mode(board_mode(answer, config.profile_on_board, self.scale))
         # The first reading decides whether the board was reset while we were away.
         # (Not published if stale: then the first poll's reading decides.)
         self._first_after_connect = True
@@ -313,8 +315,7 @@ class SerialBackend:
         self.counters.count("connects")
         if self.counters["connects"] > 1:
             self.counters.count("reconnects")
-        with self._lock:
-            self._acked_ticks = None  # (re)send the current command at once
+        self._commands.forget_ack()  # (re)send the current command at once
         self._link.last_good_s = self._clock()
         self._set_state(f"connected to {config.port}", True)
 
@@ -333,15 +334,14 @@ class SerialBackend:
             if now >= next_path_check:
                 self._link.check_path()
                 next_path_check = now + 0.25
-            with self._lock:
-                ticks, acked, acked_at = self._target_ticks, self._acked_ticks, self._acked_at
-                sendable = self._sendable_locked(ticks, now)
-            resend_due = acked_at + config.resend_period_s
-            change_due = self._change_due(ticks, acked, acked_at)
-            due = sendable and ((ticks != acked and now >= change_due)
-                                or (ticks != 0 and now >= resend_due))  # fmt: skip
+            pending = self._pending(now)
+            command, acked = pending.command, pending.acked
+            resend_due = pending.acked_at + config.resend_period_s
+            change_due = self._commands.change_due(pending)
+            due = pending.sendable and ((command != acked and now >= change_due)
+                                        or (command != 0 and now >= resend_due))  # fmt: skip
             if due and now >= self._motor_retry_at:
-                self._send_motor(ticks, resend=ticks == acked)
+                self._send_motor(command, resend=command == acked)
             now = self._clock()
             if now >= next_poll:
                 self._poll()
@@ -350,68 +350,55 @@ class SerialBackend:
                 if next_poll < now - 5 * period:
                     next_poll = now  # far behind: do not burst to catch up
             silent_s = now - self._link.last_good_s
-            with self._lock:
-                ticks, acked, acked_at = self._target_ticks, self._acked_ticks, self._acked_at
-                sendable = self._sendable_locked(ticks, now)
+            pending = self._pending(now)
+            command, acked = pending.command, pending.acked
             if silent_s > config.stale_timeout_s:
                 fault = self.counters.last_fault
                 detail = f" (last fault: {fault[0]}: {fault[1]})" if fault else ""
                 raise LinkLostError(f"no valid reply for {silent_s:.1f} s{detail}")
             deadline = min(next_poll, next_path_check)
-            if not sendable:
+            if not pending.sendable:
                 pass  # a stale non-zero speed: nothing to send until set_speed() is called
-            elif ticks != acked:
-                change_due = self._change_due(ticks, acked, acked_at)
+            elif command != acked:
+                change_due = self._commands.change_due(pending)
                 deadline = min(deadline, max(now, self._motor_retry_at, change_due))
-            elif ticks != 0:
-                deadline = min(deadline, max(acked_at + config.resend_period_s,
+            elif command != 0:
+                deadline = min(deadline, max(pending.acked_at + config.resend_period_s,
                                              self._motor_retry_at))  # fmt: skip
             timeout = deadline - self._clock()
             if timeout > 0:
                 self._wake.wait(timeout)
 
-    def _change_due(self, ticks: int, acked: int | None, acked_at: float) -> float:
-        """When ``ticks`` may replace the acknowledged target: a frame after a running one."""
-        if ticks == 0 or not acked:
-            return -math.inf  # a stop, a start, or nothing acknowledged since connecting
-        return acked_at + self.scale.frame_s
-
-    def _sendable_locked(self, ticks: int, now: float) -> bool:
-        """Whether ``ticks`` may be sent now: zero always, non-zero while set_speed() is fresh.
-
-        Call with the lock held; notes (and counts once) when re-sending pauses.
-        """
-        hold = self._command_hold_s
-        if ticks == 0 or hold is None or now - self._set_at <= hold:
-            self._resends_paused = False
-            return True
-        if not self._resends_paused:
-            self._resends_paused = True
-            self.counters.count("resend_pauses")
-        return False
+    def _pending(self, now: float) -> Pending:
+        """The command now; ``f``'s phase from the tail channel's count at carrier angle 0."""
+        unwrapper = self._tracker.unwrapper  # the I/O thread's own
+        zero = None if unwrapper.last_raw is None else unwrapper.last_raw - unwrapper.total
+        return self._commands.pending(now, zero)
 
     def _send_final_stop(self) -> None:
         for _ in range(2):
             if isinstance(self._link.exchange(encode_motor_speeds(0, 0), parse_ok), Answered):
+                self._commands.acknowledge(0, self._clock())
                 with self._lock:
                     self._final_stop = "acknowledged"
-                    self._acked_ticks = 0
                 return
             # Written (a failed write raises instead), so the board may well have run it.
             with self._lock:
                 self._final_stop = "sent, not acknowledged"
 
-    def _send_motor(self, ticks: int, resend: bool) -> None:
-        left, right = channel_ticks(self.config.channel, ticks)
-        reply = self._link.exchange(encode_motor_speeds(left, right), parse_ok)
+    def _send_motor(self, command: BoardCommand, resend: bool) -> None:
+        if isinstance(command, ProfileFields):
+            payload, kind = command.encode(), "profile"
+        else:
+            left, right = channel_ticks(self.config.channel, command)
+            payload, kind = encode_motor_speeds(left, right), "motor"
+        reply = self._link.exchange(payload, parse_ok)
         if not isinstance(reply, Answered):
             # Retry soon, but never in a tight loop against a board that rejects m at once.
             self._motor_retry_at = self._clock() + min(0.02, self.config.resend_period_s)
             return
-        with self._lock:
-            self._acked_ticks = ticks
-            self._acked_at = self._clock()
-        self.counters.count("motor_resends" if resend else "motor_commands")
+        self._commands.acknowledge(command, self._clock())
+        self.counters.count(f"{kind}_resends" if resend else f"{kind}_commands")
 
     def _poll(self) -> None:
         """One ``e`` exchange; the reading is dated when the request reached the board.
@@ -445,8 +432,7 @@ class SerialBackend:
 
     def _accept(self, pair: tuple[int, int], when: float, after_connect: bool) -> None:
         """Hand one reading to the tracker; publish its sample, count what it decided."""
-        with self._lock:
-            driven = self._acked_ticks is not None and self._acked_ticks > 0
+        driven = self._commands.driven
         tracked = self._tracker.accept(pair, when, after_connect, driven)
         if tracked.outlier is not None:
             self.counters.fault("outliers", tracked.outlier)
@@ -464,7 +450,7 @@ class SerialBackend:
             if tracked.rebase is not None:
                 self._last_rebase = (tracked.rebase, self._clock())
                 if not after_connect:
-                    self._acked_ticks = None
+                    self._commands.forget_ack()
             self._last_pair = pair
             self._continuous_counts = self._tracker.total
             self._latest = tracked.sample

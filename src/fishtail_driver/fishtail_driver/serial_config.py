@@ -35,6 +35,8 @@ class SerialConfig:
             this old (None: keep re-sending it until it changes); see
             :meth:`~fishtail_driver.serial_backend.SerialBackend.set_command_hold`.
         phase_warn_s: status() is WARN for this long after the angle was re-based.
+        profile_on_board: on the project's firmware, let the board follow speed profiles (one
+            ``f``); False: the host follows them with ``m`` on any firmware.
 
     Raises:
         ValueError: a setting that cannot work (naming it and its bound), e.g. a resend period
@@ -61,6 +63,7 @@ class SerialConfig:
     pid_gains: tuple[int, int, int, int] | None = None
     command_hold_s: float | None = None
     phase_warn_s: float = 10.0
+    profile_on_board: bool = True
 
     def __post_init__(self) -> None:
         """Reject settings that cannot work, with the reason."""
