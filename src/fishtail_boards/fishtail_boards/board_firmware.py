@@ -1,7 +1,9 @@
 r"""The emulated ROSArduinoBridge firmware: parses commands, answers them, moves the motors.
 
 Our reading of the firmware's source (hbrobotics ``ROSArduinoBridge.ino`` and
-``diff_controller.h``; the joshnewans variant's ``o`` and ``b`` reply), quirks included: byte-wise
+``diff_controller.h``; the joshnewans variant's ``o`` and ``b`` reply; with ``firmware="fishtail"``
+the project's patch: ``v``, ``f`` with :mod:`fishtail_boards.board_profile_law`, ``i``), quirks
+included: byte-wise
 parsing that only CR runs, a 16-bit ``atoi``, short argument buffers, the speed loop of
 :class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` on its frame grid, the auto-stop and
 wrapping 32-bit counts; every PWM it writes drives a motor of :mod:`fishtail_boards.board_motors`.
@@ -20,12 +22,17 @@ import dataclasses
 from collections.abc import Callable
 
 from fishtail_boards.board_motors import MOTOR_KINDS, make_motor
+from fishtail_boards.board_profile_law import CarrierProfileLaw
 from fishtail_driver.protocol import AUTO_STOP_INTERVAL_MS
 from fishtail_plant.motor.board_units import Scale, wrap_int16, wrap_int32
 from fishtail_plant.motor.dc_motor import LoadInertia, LoadTorque, zero_load, zero_load_inertia
 from fishtail_plant.motor.speed_loop import FirmwareSpeedLoop, FrameTimer, PidGains
 
 VARIANTS = ("hbrobotics", "joshnewans")
+#: stock: ROSArduinoBridge as it is; fishtail: with the project's patch (firmware/CHANGES.md).
+FIRMWARES = ("stock", "fishtail")
+#: The project firmware's version, as ``v`` answers it.
+FISHTAIL_VERSION = 1
 _ATOI_SPACE = b" \t\n\v\f\r"
 
 
@@ -56,6 +63,7 @@ class FirmwareConfig:
 
     baud: int = 57600
     variant: str = "hbrobotics"
+    firmware: str = "stock"
     counts_per_revolution: int = 2048
     gear_ratio: float = 1.0
     pid_rate_hz: int = 30
@@ -73,6 +81,8 @@ class FirmwareConfig:
         """Reject meaningless settings with the reason."""
         if self.variant not in VARIANTS:
             raise ValueError(f"variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.firmware not in FIRMWARES:
+            raise ValueError(f"firmware must be one of {FIRMWARES}, got {self.firmware!r}")
         if self.motor not in MOTOR_KINDS:
             raise ValueError(f"motor must be one of {MOTOR_KINDS}, got {self.motor!r}")
         loaded = self.load is not zero_load or self.load_inertia is not zero_load_inertia
@@ -142,6 +152,7 @@ class Firmware:
         self.timer = FrameTimer(self.scale.frame_ms, start_s=now)
         self.offsets = [config.encoder_offset, config.encoder_offset]
         self.loop = FirmwareSpeedLoop(self._counts())
+        self.profile = CarrierProfileLaw()
         self.power_on(now, counts=config.encoder_offset)
 
     # --- state -----------------------------------------------------------------------------
@@ -153,9 +164,10 @@ class Firmware:
         self.advance(now)
         self.offsets = [counts - motor.encoder_counts() for motor in self.motors]
         self.loop = FirmwareSpeedLoop(self._counts())
+        self.profile = CarrierProfileLaw()
+        self._set_pid_rate(self.config.pid_rate_hz, now)  # the build's PID_RATE again
         self._drive_motors()
         self.autostop_at = None
-        self.timer.restart(now)
         self._reset_parser()
 
     def _reset_parser(self) -> None:
@@ -205,6 +217,7 @@ class Firmware:
                 self.auto_stop_times.append(stop_at)
                 self.autostop_at = None
                 self.loop.auto_stop()
+                self.profile.on = False  # the auto-stop ends a profile
                 self._drive_motors()
                 continue
             if frame_at > now:
@@ -212,6 +225,9 @@ class Firmware:
             for when in self.timer.due(frame_at):
                 self._move_to(when)
                 counts = self._counts()
+                if self.profile.on and self.loop.moving:  # the targets from the counts just read
+                    for channel, point in enumerate(self.loop.set_points):
+                        point.target_ticks_per_frame = self.profile.target(channel, counts[channel])
                 self.frames.append((when, counts, self.loop.frame(counts)))
                 self._drive_motors()
         self._move_to(now)
@@ -267,21 +283,62 @@ class Firmware:
         if cmd == "r":
             self.offsets = [-motor.encoder_counts() for motor in self.motors]
             self.loop.reset_encoders()
+            self.profile.on = False
             return b"OK\r\n"
         if cmd == "m":
             self.autostop_at = now + auto_stop_s
+            self.profile.on = False
             self.loop.command((arg1, arg2), self._counts())
             if not self.loop.moving:  # m 0 0 wrote PWM 0; other targets wait for the frame
                 self._drive_motors()
             return b"OK\r\n"
         if cmd == "o" and self.config.variant == "joshnewans":
             self.autostop_at = now + auto_stop_s
+            self.profile.on = False
             self.loop.raw_pwm((arg1, arg2), self._counts())
             self._drive_motors()
             return b"OK\r\n"
         if cmd == "u":
             return self._update_gains(command.argv1)
+        if self.config.firmware == "fishtail" and cmd in ("v", "f", "i"):
+            return self._fishtail_command(cmd, command.argv1, arg1, now, auto_stop_s)
         return b"Invalid Command\r\n"
+
+    def _fishtail_command(
+        self, cmd: str, argv1: bytes, arg1: int, now: float, auto_stop_s: float
+    ) -> bytes:
+        """The project's commands (firmware/CHANGES.md): ``v``, ``f``, ``i``."""
+        if cmd == "v":
+            rate, frame_ms = self.scale.pid_rate_hz, self.timer.frame_ms
+            return (
+                f"fishtail {FISHTAIL_VERSION} pid_hz={rate} pid_ms={frame_ms} profile=1\r\n"
+            ).encode("ascii")
+        if cmd == "f":
+            if not self.profile.set_profile(argv1):
+                return b"ERR\r\n"
+            self.autostop_at = now + auto_stop_s
+            if self.profile.scale == 0:  # MEAN 0 stops as m 0 0 does
+                self.profile.on = False
+                self.loop.command((0, 0), self._counts())
+                self._drive_motors()
+            else:
+                self.loop.moving = True  # the targets come at the next frame
+            return b"OK\r\n"
+        if not 1 <= arg1 <= 500:
+            return b"ERR\r\n"
+        self.loop.command((0, 0), self._counts())  # stops and resets as m 0 0 does
+        self.profile.on = False
+        self._drive_motors()
+        self._set_pid_rate(arg1, now)
+        return b"OK\r\n"
+
+    def _set_pid_rate(self, rate_hz: int, now: float) -> None:
+        """Frames every ``1000 // rate_hz`` ms from ``now`` on (the motors' units follow)."""
+        self.scale = Scale(self.scale.counts_per_revolution, self.scale.gear_ratio, rate_hz)
+        for motor in self.motors:
+            if hasattr(motor, "scale"):
+                motor.scale = self.scale
+        self.timer = FrameTimer(self.scale.frame_ms, start_s=now)
 
     def _update_gains(self, argument: bytes) -> bytes:
         """``u Kp:Kd:Ki:Ko``: exactly four gains, Ko not 0; anything else is refused.

@@ -15,7 +15,7 @@ import signal
 import sys
 from pathlib import Path
 
-from fishtail_boards.board_firmware import VARIANTS
+from fishtail_boards.board_firmware import FIRMWARES, VARIANTS
 from fishtail_boards.board_motors import MOTOR_KINDS
 from fishtail_boards.board_pty import BoardConfig, FakeBoard
 from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
@@ -41,6 +41,14 @@ def _parser() -> argparse.ArgumentParser:
         choices=VARIANTS,
         default="hbrobotics",
         help="hbrobotics: 'b' -> ' 57600', no 'o'; joshnewans: 'b' -> '57600', 'o' raw PWM",
+    )
+    add(
+        "--firmware",
+        choices=FIRMWARES,
+        default="stock",
+        help="stock: ROSArduinoBridge as it is ('v', 'f', 'i' are Invalid Command); fishtail: "
+        "the project's firmware (firmware/CHANGES.md): 'v' capabilities, 'f' the carrier speed "
+        "profile followed at every PID frame, 'i' the PID rate",
     )
     add(
         "--motor",
@@ -110,6 +118,7 @@ def main(argv: list[str] | None = None) -> int:
             baud=args.baud,
             pace_baud=args.pace_baud,
             variant=args.variant,
+            firmware=args.firmware,
             counts_per_revolution=args.counts_per_rev,
             gear_ratio=args.gear_ratio,
             motor=args.motor,
@@ -135,6 +144,11 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError) as error:
         print(f"fishtail-fake-board: error: {error}", file=sys.stderr)
         return 2
+    emulated = "the project's firmware (fishtail 1)" if args.firmware == "fishtail" else "stock"
+    print(
+        f"fishtail-fake-board: emulating ROSArduinoBridge ({args.variant}), {emulated}",
+        file=sys.stderr, flush=True,
+    )  # fmt: skip
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, lambda *_: board.stop())
     signal.signal(signal.SIGUSR1, lambda *_: board.request_reset())

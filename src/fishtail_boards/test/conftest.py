@@ -10,9 +10,11 @@
   (tools/test-firmware.sh); skips with one line saying why where they are not built.
   ``fishtail_build``: the same for the project's firmware (build/firmware/fishtail).
 * ``either_board(encoder_offset=0)``: parametrised over the boards, ``fake`` (the project's
-  emulation, a DC motor), ``firmware`` (ROSArduinoBridge in simavr, the same DC motor) and
+  emulation of the stock firmware, a DC motor), ``fake_fishtail`` (the emulation of the
+  project's firmware), ``firmware`` (ROSArduinoBridge in simavr, the same DC motor) and
   ``fishtail`` (the project's firmware in simavr), all the Pololu 37D 30:1 with its 64-count
-  encoder: a :class:`BoardUnderTest` (link, reset, the board's own clock).
+  encoder: a :class:`BoardUnderTest` (link, reset, the board's own clock; ``project_firmware``
+  says whether it runs the project's firmware, which follows a speed profile itself).
 * ``raw_port(path)``: the board's serial port in raw mode, one command and its reply at a time.
 * ``wait_until``, ``driver_run``, ``ros_probe``: :mod:`fishtail_testkit.driver_nodes`.
 """
@@ -217,6 +219,8 @@ class BoardUnderTest:
     """
 
     kind = ""
+    #: Whether it runs the project's firmware (answers ``v``, follows ``f``).
+    project_firmware = False
     link: Path
 
     def clock_at(self, host_s: float) -> float:
@@ -253,6 +257,8 @@ class FakeUnderTest(BoardUnderTest):
         """Wrap a started fake board."""
         self.handle = handle
         self.link = handle.link
+        self.project_firmware = handle.board.config.firmware == "fishtail"
+        self.kind = "fake_fishtail" if self.project_firmware else "fake"
 
     def clock_at(self, host_s: float) -> float:
         """The host's clock."""
@@ -279,10 +285,12 @@ class FirmwareUnderTest(BoardUnderTest):
 
     kind = "firmware"
 
-    def __init__(self, board: SimulatedBoard) -> None:
+    def __init__(self, board: SimulatedBoard, project_firmware: bool) -> None:
         """Wrap a started simulator."""
         self.board = board
         self.link = board.link
+        self.project_firmware = project_firmware
+        self.kind = "fishtail" if project_firmware else "firmware"
 
     def clock_at(self, host_s: float) -> float:
         """The simulated time at that host time."""
@@ -318,23 +326,25 @@ def _dc_motors(count: int) -> list[DcChannelMotor]:
 @pytest.fixture(
     params=[
         "fake",
+        "fake_fishtail",
         pytest.param("firmware", marks=pytest.mark.integration),
         pytest.param("fishtail", marks=pytest.mark.integration),
     ]
 )
 def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]:
-    """``either_board(encoder_offset=0)``: the fake board, or a firmware in simavr.
+    """``either_board(encoder_offset=0)``: a fake board, or a firmware in simavr.
 
     ``firmware`` is the stock ROSArduinoBridge, ``fishtail`` the project's (which keeps every
-    stock command and reply).
+    stock command and reply); ``fake`` emulates the stock one, ``fake_fishtail`` the project's.
     """
     started: list[BoardUnderTest] = []
 
     def start(encoder_offset: int = 0) -> BoardUnderTest:
         link = tmp_path / f"either{len(started)}"
         board: BoardUnderTest
-        if request.param == "fake":
-            handle = fake_board(link=link, variant="joshnewans", motor="dc",
+        if request.param in ("fake", "fake_fishtail"):
+            firmware = "fishtail" if request.param == "fake_fishtail" else "stock"
+            handle = fake_board(link=link, variant="joshnewans", motor="dc", firmware=firmware,
                                 encoder_offset=encoder_offset, **POLOLU)  # fmt: skip
             board = FakeUnderTest(handle)
         else:
@@ -345,7 +355,7 @@ def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]
                 simulated = SimulatedBoard(
                     _dc_motors(2), link, folder, extra, stderr=stderr, cable=True
                 )
-            board = FirmwareUnderTest(simulated)
+            board = FirmwareUnderTest(simulated, request.param == "fishtail")
             assert simulated.ready.wait(10.0), "the simulator did not start"
         started.append(board)
         return board
@@ -396,5 +406,3 @@ def raw_port() -> Callable[[Path], RawPort]:
     yield open_port
     for port in opened:
         port.close()
-
-
