@@ -13,6 +13,7 @@ import time
 import pytest
 
 import fishtail_bringup.console
+from fishtail_boards.avr_board import PROJECT_FIRMWARE_DIR, built_artifacts
 from fishtail_testkit.console_runs import run_until
 from fishtail_testkit.firmware import built_firmware_or_skip
 from fishtail_testkit.steering_doc import documented_square_seconds
@@ -161,27 +162,49 @@ def test_the_loaded_dc_motor_shows_its_torque_and_current(ros_domain, run):
 
 
 def test_the_suite_runs_on_the_firmware_in_simavr(ros_domain):
-    """``--firmware``: the driver on ROSArduinoBridge in simavr; the carrier turns, all stop.
+    """``--firmware``: the driver on the project's firmware in simavr; the carrier turns, all stop.
 
-    One layout only (the simulator alone needs most of a core). Skips where set-up could not
-    build the firmware (saying why).
+    The board follows the profile (the driver says so once connected). One layout only (the
+    simulator alone needs most of a core). Skips where set-up could not build the firmware
+    (saying why).
     """
-    built_firmware_or_skip()
+    firmware = built_firmware_or_skip()
+    if built_artifacts(firmware / PROJECT_FIRMWARE_DIR) is None:
+        pytest.skip(f"the project's firmware is not built in {firmware / PROJECT_FIRMWARE_DIR}")
 
     def turned(out: str) -> bool:
         carriers = [float(m) for m in re.findall(r"carrier +([0-9.]+) rad", out)]
         on_the_board = "[board] /dev/" in out and up(out, "driver", "kinematics", "monitor")
-        return on_the_board and bool(carriers) and carriers[-1] > 5.0
+        said = "fishtail 1 (profile on board)" in out  # once connected
+        return on_the_board and said and bool(carriers) and carriers[-1] > 5.0
 
     completed = run_until([*RUN, "--firmware", "--speed", "8"], turned, RUN_TIMEOUT_S)
     output = completed.output
     assert completed.returncode == 0, output
     assert "on the firmware in simavr" in output and "[board] /dev/" in output, output
     assert "driver up: backend serial" in output, output
+    assert "the project's firmware (profile on the board)" in output, output
+    assert re.search(r"motor board on \S+: fishtail 1 \(profile on board\)", output), output
     carriers = [float(m) for m in re.findall(r"carrier +([0-9.]+) rad", output)]
     assert carriers and carriers[-1] > 5.0, output  # turned, whatever pace the host kept
     assert "stop acknowledged by the board" in output, output
     assert "non-zero status" not in output and "killed" not in output, output
+
+
+def test_firmware_stock_picks_the_stock_firmware(tmp_path, monkeypatch):
+    """``--firmware`` alone: the project's where built, else stock; ``--firmware stock``: stock."""
+    from fishtail_bringup import firmware_board
+
+    monkeypatch.setenv("FISHTAIL_ROOT", str(tmp_path))  # nothing built here
+    assert firmware_board.pick_firmware("auto") == "stock"
+    assert firmware_board.pick_firmware("fishtail") == "fishtail"
+    assert "run make firmware" in (firmware_board.missing_firmware("fishtail") or "")
+    stock = firmware_board.board_command(tmp_path / "link", "none", tmp_path, None, "stock")
+    project = firmware_board.board_command(tmp_path / "link", "none", tmp_path, None, "fishtail")
+    assert stock[stock.index("--build-dir") + 1] == str(tmp_path / "build" / "firmware")
+    assert project[project.index("--build-dir") + 1] == str(
+        tmp_path / "build" / "firmware" / "fishtail"
+    )
 
 
 #: A waypoint line of the console: which, how, where, and the time into the route.

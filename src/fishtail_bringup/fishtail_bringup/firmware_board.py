@@ -3,7 +3,9 @@
 Starts ``fishtail-avr-board`` (:mod:`fishtail_boards.avr_board`) as one more process of the
 supervisor, before the nodes and stopped after them, and gives the driver ``backend:=serial`` on
 its link, so that the whole chain from ROS node to the firmware's PID runs without hardware.
-docs/serial.md ("The real firmware in a simulator").
+The project's firmware (build/firmware/fishtail: the board follows a speed profile itself) where
+it is built, else the stock ROSArduinoBridge; ``--firmware stock`` picks the stock one.
+docs/serial.md ("The real firmware in a simulator"), docs/firmware.md.
 """
 
 from __future__ import annotations
@@ -11,7 +13,13 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from fishtail_boards.avr_board import ELF_NAME, SIMULATOR_NAME, built_artifacts, default_build_dir
+from fishtail_boards.avr_board import (
+    ELF_NAME,
+    PROJECT_FIRMWARE_DIR,
+    SIMULATOR_NAME,
+    built_artifacts,
+    default_build_dir,
+)
 from fishtail_driver.parameters import DC_MOTOR_ENCODER
 from fishtail_plant.linkage_load.surroundings import NO_LOAD
 
@@ -19,18 +27,46 @@ from fishtail_plant.linkage_load.surroundings import NO_LOAD
 BOARD_LABEL = "board"
 #: The symlink's name in the run's folder.
 LINK_NAME = "ttyFIRMWARE"
+#: ``--firmware`` values: the project's (``fishtail``), the stock one, or the project's where
+#: built (``auto``, what ``--firmware`` alone means).
+FIRMWARES = ("fishtail", "stock")
+AUTO = "auto"
 
 
-def missing_firmware() -> str | None:
-    """Why the firmware cannot run (not built: the command that builds it), or None."""
-    if built_artifacts() is None:
-        return f"no {ELF_NAME} and {SIMULATOR_NAME} in {default_build_dir()}: run make firmware"
+def build_dir(firmware: str) -> Path:
+    """The build folder of ``firmware`` (``fishtail`` or ``stock``)."""
+    stock = default_build_dir()
+    return stock / PROJECT_FIRMWARE_DIR if firmware == "fishtail" else stock
+
+
+def pick_firmware(asked: str) -> str:
+    """``auto``: the project's firmware if it is built, else the stock one; others as asked."""
+    if asked != AUTO:
+        return asked
+    return "fishtail" if built_artifacts(build_dir("fishtail")) is not None else "stock"
+
+
+def missing_firmware(firmware: str = "stock") -> str | None:
+    """Why ``firmware`` cannot run (not built: the command that builds it), or None."""
+    folder = build_dir(firmware)
+    if built_artifacts(folder) is None:
+        return f"no {ELF_NAME} and {SIMULATOR_NAME} in {folder}: run make firmware"
     return None
 
 
-def board_command(link: Path, load: str, config: Path, fish: Path | None) -> list[str]:
+def describe(firmware: str) -> str:
+    """For fishtail-run's first line."""
+    if firmware == "fishtail":
+        return "the project's firmware (profile on the board)"
+    return "the stock ROSArduinoBridge (profile on the host)"
+
+
+def board_command(
+    link: Path, load: str, config: Path, fish: Path | None, firmware: str = "stock"
+) -> list[str]:
     """``fishtail-avr-board`` at ``link``; with ``load`` its motors turn the tail of ``config``."""
     command = [sys.executable, "-m", "fishtail_boards.avr_board", "--link", str(link),
+               "--build-dir", str(build_dir(firmware)),
                "--counts-per-rev", str(DC_MOTOR_ENCODER["encoder_counts_per_revolution"]),
                "--gear-ratio", str(DC_MOTOR_ENCODER["gear_ratio"])]  # fmt: skip
     if load != NO_LOAD:

@@ -146,9 +146,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--firmware",
-        action="store_true",
-        help="the driver on the real motor-board firmware (ROSArduinoBridge in simavr, make "
-        "firmware) over a serial link, its motor the DC gear motor (instead of --motor)",
+        nargs="?",
+        const=firmware_board.AUTO,
+        choices=(*firmware_board.FIRMWARES, firmware_board.AUTO),
+        help="the driver on the real motor-board firmware in simavr (make firmware) over a "
+        "serial link, its motor the DC gear motor (instead of --motor): fishtail, the project's "
+        "(the board follows the speed profile), where built, else stock; --firmware stock: the "
+        "stock ROSArduinoBridge (the driver follows the profile)",
     )
     parser.add_argument(
         "--load",
@@ -209,9 +213,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--firmware drives the firmware's DC motor: leave out --motor")
     if loaded and arguments.motor != "dc" and not arguments.firmware:
         parser.error(f"--load {arguments.load} needs --motor dc (only the DC motor feels a load)")
-    if arguments.firmware and (missing := firmware_board.missing_firmware()):
-        print(f"fishtail-run: error: --firmware: {missing}", file=sys.stderr)
-        return 2
+    if arguments.firmware:
+        arguments.firmware = firmware_board.pick_firmware(arguments.firmware)
+        if missing := firmware_board.missing_firmware(arguments.firmware):
+            print(f"fishtail-run: error: --firmware: {missing}", file=sys.stderr)
+            return 2
     try:
         config = arguments.config or default_parameter_file(arguments.mechanism)
         fish_config = None
@@ -242,7 +248,9 @@ def main(argv: list[str] | None = None) -> int:
     motor_params = motor_parameters(arguments.motor, arguments.load)
     if arguments.firmware:
         link = Path(tempfile.mkdtemp(prefix="fishtail-firmware-")) / firmware_board.LINK_NAME
-        command = firmware_board.board_command(link, arguments.load, config, fish_config)
+        command = firmware_board.board_command(
+            link, arguments.load, config, fish_config, arguments.firmware
+        )
         boards[firmware_board.BOARD_LABEL] = command
         motor_params = firmware_board.driver_parameters(link)
     # The driver's own parameters after --motor's, so that --driver-param overrides them.
@@ -272,7 +280,11 @@ def main(argv: list[str] | None = None) -> int:
         f"fishtail-run: {', '.join(node.name for node in nodes)} with {config}, "
         + ("in one process, " if arguments.one_process else "")
         + (f"{arguments.motor} motor, " if arguments.motor else "")
-        + ("on the firmware in simavr, " if arguments.firmware else "")
+        + (
+            f"on the firmware in simavr ({firmware_board.describe(arguments.firmware)}), "
+            if arguments.firmware
+            else ""
+        )
         + (f"turning the tail ({arguments.load}), " if loaded else "")
         + (
             f"piloted ({steering} steering)"
