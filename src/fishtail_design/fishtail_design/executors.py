@@ -212,11 +212,6 @@ class LocalProcessExecutor(_Closing):
         self._pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _call(function: Callable[[FloatArray], R], batch: FloatArray) -> R:
-    """A Dask task: ``function(batch)`` (``function`` arrives as the scattered batch function)."""
-    return function(batch)
-
-
 def evaluate_in_batches(
     executor: Executor,
     function: Callable[[FloatArray], R],
