@@ -7,7 +7,7 @@ calls on the same samples), a sweep on two Dask workers >= 1.7x one core. Then t
 run of config/design/report-fish.yaml (the search, the verified front, the files). The problems
 are config/design/report-fish.yaml and, for mechanism 2, report-fish-undulatory.yaml, 128 samples
 a beat. Run with `make bench`; ``--quick``: fewer designs in the sweeps and no full run;
-``--search-tier``: the search tier's lines only.
+``--search-tier``: the search tier's lines only; ``--sweeps``: those and the sweeps' only.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from fishtail_design.executors import InProcessExecutor
 from fishtail_design.linkages import OscillatoryLinkages
 from fishtail_design.performance import performance
 from fishtail_design.problem import Problem, read_problem
-from fishtail_design.sweep import latin_hypercube, sweep
+from fishtail_design.sweep import SweepResult, latin_hypercube, sweep
 from fishtail_design.variables import CARRIER_SPEED, GEAR_RATIO, GEARBOX_EFFICIENCY
 from fishtail_kinematics.engine.blocks import BLOCK_SAMPLES, block_slices
 from fishtail_plant.fish import cycle_kernel
@@ -167,31 +167,55 @@ def engine_against_floor(problem: Problem, rows: np.ndarray) -> None:
 
 
 def sweep_seconds(
-    problem: Problem, count: int, executor: object, folder: Path, batch_size: int = SWEEP_BATCH
-) -> float:
-    """Wall seconds of a sweep of ``count`` Latin-hypercube designs to a Parquet file.
+    problem: Problem,
+    count: int,
+    executor: object,
+    folder: Path,
+    batch_size: int = SWEEP_BATCH,
+    parts: bool = False,
+    chunk_size: int = SWEEP_CHUNK,
+) -> tuple[float, SweepResult]:
+    """Wall seconds of a sweep of ``count`` Latin-hypercube designs to Parquet.
 
     Chunks of :data:`SWEEP_CHUNK` designs in tasks of :data:`SWEEP_BATCH`: with the compiled
     kernel the default task of 64 designs takes a few milliseconds, less than a Dask task's own
     overhead, and two tasks a chunk keep two workers busy. Parquet: writing CSV costs as much
-    as scoring.
+    as scoring. ``parts``: a folder of part files, each chunk a task that writes its own.
+    Returns the seconds and what the sweep said.
     """
     points = designs(problem, count, seed=2)
     started = time.perf_counter()
-    sweep(problem, points, folder / "sweep.parquet", executor,  # type: ignore[arg-type]
-          chunk_size=SWEEP_CHUNK, batch_size=batch_size)  # fmt: skip
-    return time.perf_counter() - started
+    path = folder / ("parts.parquet" if parts else "sweep.parquet")
+    result = sweep(problem, points, path, executor,  # type: ignore[arg-type]
+                   chunk_size=chunk_size, batch_size=batch_size, parts=parts)  # fmt: skip
+    return time.perf_counter() - started, result
+
+
+def load() -> str:
+    """The load averages (1, 5, 15 min), said with each figure: the machine is shared."""
+    return "load average " + ", ".join(f"{value:.2f}" for value in os.getloadavg())
 
 
 def sweeps(problem: Problem, count: int, all_cores: set[int]) -> None:
-    """A sweep on one core in this process, then on a local Dask cluster of two workers."""
+    """A sweep on one core in this process, then on a local Dask cluster of two workers.
+
+    One core writes the single file (what a sweep writes by default); the two workers write
+    their own parts (``--parts``: the client only hands out designs), and, for comparison, the
+    single file through the client. The one-core sweep is timed before and after the cluster's,
+    as the load of a shared machine drifts; the ratio is against the faster of the two.
+    """
     with tempfile.TemporaryDirectory() as folder:
         evaluate_rows(problem, designs(problem, 8))
-        one_s = sweep_seconds(problem, count, InProcessExecutor(), Path(folder))
-        print(
-            f"sweep of {count:,} designs (Parquet, chunks of {SWEEP_CHUNK}, tasks of "
-            f"{SWEEP_BATCH}), one core: {one_s:.1f} s ({count / one_s:,.0f}/s)"
-        )
+        print(f"sweep of {count:,} designs (Parquet, chunks of {SWEEP_CHUNK}), {load()}")
+        one_s, _ = sweep_seconds(problem, count, InProcessExecutor(), Path(folder))
+        print(f"  one core, the single file (tasks of {SWEEP_BATCH}): {one_s:.1f} s "
+              f"({count / one_s:,.0f}/s), {load()}")  # fmt: skip
+        chunks = math.ceil(count / SWEEP_CHUNK)
+        parts_s, result = sweep_seconds(problem, count, InProcessExecutor(), Path(folder),
+                                        parts=True)  # fmt: skip
+        print(f"  one core, parts: {parts_s:.1f} s ({count / parts_s:,.0f}/s); per chunk "
+              f"scoring {result.scoring_s / chunks:.3f} s, sweep_table + Parquet part "
+              f"{result.writing_s / chunks:.3f} s, {load()}")  # fmt: skip
         try:
             os.sched_setaffinity(0, all_cores)  # the workers inherit this process's cores
         except (AttributeError, OSError):
@@ -201,11 +225,25 @@ def sweeps(problem: Problem, count: int, all_cores: set[int]) -> None:
             # A first small sweep in small tasks, so that both workers import fishtail and load
             # the compiled code before the timed one.
             sweep_seconds(problem, 512, executor, Path(folder), batch_size=64)
-            two_s = sweep_seconds(problem, count, executor, Path(folder))
+            sweep_seconds(problem, 512, executor, Path(folder), parts=True, chunk_size=64)
+            two_s, result = sweep_seconds(problem, count, executor, Path(folder), parts=True)
+            print(f"  two Dask workers ({cores} cores allowed), parts written by the workers: "
+                  f"{two_s:.1f} s ({count / two_s:,.0f}/s), {load()}")  # fmt: skip
+            busy = result.scoring_s + result.writing_s
+            print(f"    per chunk of {SWEEP_CHUNK} (mean of {chunks}, in the task): scoring "
+                  f"{result.scoring_s / chunks:.3f} s, sweep_table + Parquet part "
+                  f"{result.writing_s / chunks:.3f} s, task CPU {result.task_cpu_s / chunks:.3f} "
+                  f"s; the rest of 2 workers x wall (handing out, scheduling, waiting, other "
+                  f"processes' load): {(2.0 * two_s - busy) / chunks:.3f} s")  # fmt: skip
+            single_s, _ = sweep_seconds(problem, count, executor, Path(folder))
+            print(f"  two Dask workers, the single file written by the client: "
+                  f"{single_s:.1f} s ({count / single_s:,.0f}/s), {load()}")  # fmt: skip
         pin_to_one_core()
+        again_s, _ = sweep_seconds(problem, count, InProcessExecutor(), Path(folder))
+        print(f"  one core again: {again_s:.1f} s ({count / again_s:,.0f}/s), {load()}")
+        one_s = min(one_s, again_s)
         print(
-            f"sweep of {count:,} designs, two Dask workers ({cores} cores allowed): "
-            f"{two_s:.1f} s ({count / two_s:,.0f}/s), {one_s / two_s:.2f}x one core "
+            f"  two Dask workers writing parts: {one_s / two_s:.2f}x one core "
             f"(target >= 1.7x: {verdict(one_s / two_s >= 1.7)})"
         )
 
@@ -267,6 +305,9 @@ def main() -> None:
         f"{verdict(compiled_rate >= TARGET_UNDULATORY_DESIGNS_S)})"
     )
     if "--search-tier" in sys.argv[1:]:
+        return
+    if "--sweeps" in sys.argv[1:]:
+        sweeps(problem, QUICK_SWEEP_DESIGNS if quick else SWEEP_DESIGNS, all_cores)
         return
     fast, slow, difference = performance_rates(problem, rows)
     print(

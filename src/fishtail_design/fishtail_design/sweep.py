@@ -11,6 +11,10 @@ chunk) or a Parquet file (a row group per chunk), chosen by the file's suffix. A
 chunks are in memory, whatever the number of designs: the one being written and the next, being
 scored, or two being scored. The columns: every variable by name, the objectives, the
 constraints' margins, ``feasible`` and the search tier's figures, named as in ``front.csv``.
+With ``parts=True`` (:func:`sweep`) the output is instead a folder of Parquet files, one per
+chunk (:func:`part_name`), each scored and written by the worker that runs the chunk: the client
+only hands out designs and gathers a count per chunk, so that it does not become the bottleneck of
+a cluster; read back as one dataset, the folder holds the same table as the single file.
 Usage: docs/design.md ("Sweeps").
 
 >>> from fishtail_design.variables import DesignSpace
@@ -28,6 +32,8 @@ import csv
 import dataclasses
 import functools
 import math
+import os
+import time
 from collections.abc import Callable, Generator, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple, TextIO
@@ -56,6 +62,10 @@ FORMATS = (".csv", ".parquet")
 LATIN_HYPERCUBE_MOST = 10_000_000
 #: The catalogue index's column: a grid takes every ratio once, at the middle of its share.
 GEAR_INDEX = "gear_index"
+#: Chunks in one executor map when the workers write the parts; two maps are open at a time, so
+#: that up to twice as many chunks are queued or running (each a task, a few designs x variables
+#: of input and a count of output) and no worker waits for the client.
+PARTS_PER_MAP = 4
 
 
 def latin_hypercube(space: DesignSpace, count: int, seed: int) -> FloatArray:
@@ -177,10 +187,18 @@ def sweep_table(problem: Problem, rows: FloatArray, scores: Scores) -> list[Floa
 
 
 class SweepResult(NamedTuple):
-    """What a sweep wrote: its designs and how many of them are feasible."""
+    """What a sweep wrote: its designs and how many of them are feasible.
+
+    A parts sweep also says what its tasks took, summed over the chunks: seconds scoring and
+    seconds making and writing the parts (wall time in the task), and the tasks' CPU seconds
+    (0 for a sweep that writes one file).
+    """
 
     designs: int
     feasible: int
+    scoring_s: float = 0.0
+    writing_s: float = 0.0
+    task_cpu_s: float = 0.0
 
 
 def output_format(path: Path) -> str:
@@ -206,6 +224,7 @@ def sweep(
     batch_size: int = BATCH_SIZE,
     progress: Callable[[int], None] | None = None,
     function: Callable[[FloatArray], Scores] | None = None,
+    parts: bool = False,
 ) -> SweepResult:
     """Score ``points`` chunk by chunk on ``executor`` and write them to ``path`` in order.
 
@@ -225,15 +244,26 @@ def sweep(
         progress: called with the number of designs scored each time a batch's result arrives.
         function: the batch function (default: the problem's
             :func:`~fishtail_design.evaluation.evaluate_rows`); a test's stand-in.
+        parts: ``path`` (``.parquet``) is a folder, and each chunk is one task that scores the
+            chunk and writes it there as a Parquet file of its own (:func:`part_name`), where it
+            runs: on a cluster the folder must be on a filesystem that every worker shares.
+            ``batch_size`` does not apply (a chunk is a task). The client holds at most
+            2 x :data:`PARTS_PER_MAP` chunks of designs. A sweep that stops part-way leaves the
+            parts done, which need not be consecutive: part k holds chunk k's designs.
 
     Raises:
-        DesignError: an output file of another suffix.
+        DesignError: an output file of another suffix, parts of a CSV file, or a parts folder
+            whose name is an existing file.
         ExecutorError: a batch that failed.
         OSError: the file cannot be written.
     """
     suffix = output_format(path)
     if batch_size < 1:
         raise ValueError(f"the batch size must be at least 1, not {batch_size}")
+    if parts:
+        if suffix != ".parquet":
+            raise DesignError(f"{path}: parts are Parquet files: name the folder *.parquet")
+        return _sweep_parts(problem, points, path, executor, chunk_size, progress, function)
     batch_function = function or functools.partial(evaluate_rows, problem)
     columns = sweep_columns(problem)
     written = feasible = 0
@@ -251,6 +281,137 @@ def sweep(
         finally:
             scored.close()
     return SweepResult(written, feasible)
+
+
+def part_name(index: int) -> str:
+    """The file of chunk ``index`` in a parts folder: ``part-000042.parquet``.
+
+    Zero-padded, so that the files sort in the chunks' order (as a Parquet dataset's readers
+    take them) up to a million chunks, and by number beyond.
+    """
+    return f"part-{index:06d}.parquet"
+
+
+def write_part(
+    problem: Problem,
+    folder: str,
+    function: Callable[[FloatArray], Scores] | None,
+    batch: FloatArray,
+) -> FloatArray:
+    """A parts sweep's task: score a chunk and write it to ``folder`` as its part file.
+
+    ``batch``: the chunk's index in the first column, then its designs (the optimiser's rows).
+    The file is written under a name that readers skip (a leading dot) and renamed when whole,
+    so that the folder never holds a part cut short. Returns ``[[index, designs, feasible,
+    seconds scoring, seconds writing, CPU seconds]]``.
+    """
+    started, cpu = time.perf_counter(), time.process_time()
+    index = int(batch[0, 0])
+    rows = np.ascontiguousarray(batch[:, 1:])
+    scores = (function or functools.partial(evaluate_rows, problem))(rows)
+    scored = time.perf_counter()
+    table = sweep_table(problem, rows, scores)
+    final = Path(folder) / part_name(index)
+    partial = final.with_name(f".{final.name}.{os.getpid()}")
+    try:
+        with _ParquetWriter(partial, sweep_columns(problem)) as writer:
+            writer.write(table)
+        os.replace(partial, final)
+    finally:
+        partial.unlink(missing_ok=True)
+    feasible = int(np.count_nonzero(table[sweep_columns(problem).index("feasible")]))
+    now = time.perf_counter()
+    spent = (scored - started, now - scored, time.process_time() - cpu)
+    return np.array([[index, rows.shape[0], feasible, *spent]], dtype=float)
+
+
+def _parts_folder(path: Path) -> None:
+    """Make the folder ``path``, or empty an existing one of its part files.
+
+    Raises:
+        DesignError: ``path`` is an existing file.
+    """
+    if path.exists() and not path.is_dir():
+        raise DesignError(f"{path}: a parts sweep writes a folder, and this is a file")
+    path.mkdir(parents=True, exist_ok=True)
+    for stale in (*path.glob("part-*.parquet"), *path.glob(".part-*.parquet.*")):
+        stale.unlink()
+
+
+def _sweep_parts(
+    problem: Problem,
+    points: FloatArray | Grid,
+    folder: Path,
+    executor: Executor,
+    chunk_size: int,
+    progress: Callable[[int], None] | None,
+    function: Callable[[FloatArray], Scores] | None,
+) -> SweepResult:
+    """:func:`sweep` with ``parts``: a task per chunk, writing its part; counts gathered."""
+    _parts_folder(folder)
+    task = functools.partial(write_part, problem, str(folder.resolve()), function)
+    written = feasible = 0
+    spent = np.zeros(3)
+    for summary in _mapped_in_groups(executor, task, _tagged(chunks(points, chunk_size))):
+        written += int(summary[0, 1])
+        feasible += int(summary[0, 2])
+        spent += summary[0, 3:6]
+        if progress is not None:
+            progress(written)
+    return SweepResult(written, feasible, *(float(value) for value in spent))
+
+
+def _tagged(source: Iterable[FloatArray]) -> Iterator[FloatArray]:
+    """Each chunk with its index in a first column (the task names its part by it)."""
+    for index, rows in enumerate(source):
+        batch = np.empty((rows.shape[0], rows.shape[1] + 1))
+        batch[:, 0] = index
+        batch[:, 1:] = rows
+        yield batch
+
+
+def _mapped_in_groups(
+    executor: Executor, task: Callable[[FloatArray], FloatArray], source: Iterator[FloatArray]
+) -> Iterator[FloatArray]:
+    """``task`` over every batch of ``source``, :data:`PARTS_PER_MAP` batches a map.
+
+    The next map starts before the current one's results are all in (the executors submit a
+    map's batches when its first result is asked for), so that the workers always have tasks
+    queued; at most two maps' batches are held. Results come as each map's complete.
+
+    Raises:
+        ExecutorError: a task that failed, or one without a result.
+    """
+    running: Iterator[tuple[int, FloatArray]] | None = None
+    following: Iterator[tuple[int, FloatArray]] | None = None
+    held: list[FloatArray] = []
+    expected = 0
+    try:
+        while True:
+            group = [batch for _, batch in zip(range(PARTS_PER_MAP), source, strict=False)]
+            following = executor.map_batches(task, group) if group else None
+            first = next(following, None) if following is not None else None
+            if running is not None:
+                results = held + [result for _, result in running]
+                _close(running)
+                if len(results) != expected:
+                    raise ExecutorError("the executor returned no result for a part of the sweep")
+                yield from results
+            if following is None:
+                return
+            running, held, expected = following, [first[1]] if first else [], len(group)
+            following = None
+    finally:
+        for stream in (following, running):
+            if stream is not None:
+                _close(stream)
+
+
+def _close(stream: Iterator[object]) -> None:
+    """Stop a map (the executor cancels the batches not yet run)."""
+    close = getattr(stream, "close", None)
+    if close is not None:
+        close()
 
 
 class _Chunk:

@@ -89,12 +89,18 @@ def sweep_parser() -> OneLineErrorParser:
     add_parameter_options(parser, [CHUNK])
     parser.add_argument("--output", type=_output, required=True, metavar="FILE.csv|FILE.parquet",
                         help="the file written; its suffix chooses the format")  # fmt: skip
+    parser.add_argument("--parts", action="store_true",
+                        help="write --output (.parquet) as a folder of part files, one per chunk, "
+                        "each written by the worker that scores it (a cluster's workers must "
+                        "share the folder's filesystem); read it back as one dataset")  # fmt: skip
     add_executor_arguments(parser)
     return parser
 
 
 def _check_usage(parser: OneLineErrorParser, arguments: argparse.Namespace) -> None:
     """Refuse the options that do not go with the method (a usage error)."""
+    if arguments.parts and arguments.output.suffix.lower() != ".parquet":
+        parser.error("--parts writes Parquet files: --output FOLDER.parquet")
     if arguments.method == "lhs":
         if arguments.designs is None:
             parser.error("--method lhs needs --designs N")
@@ -169,22 +175,26 @@ def run_sweep(parser: OneLineErrorParser, arguments: argparse.Namespace) -> int:
     output: Path = arguments.output
     if output.parent != Path():
         output.parent.mkdir(parents=True, exist_ok=True)
+    parts = bool(arguments.parts)
+    target = f"{output}/part-*.parquet" if parts else str(output)
     started = time.monotonic()
     with executor_from_arguments(arguments) as executor:
         print(f"{PROGRAM}: {problem.path}: {how} over {len(names)} free variables "
-              f"({', '.join(names)}), evaluating on {executor.description}, writing {output}",
+              f"({', '.join(names)}), evaluating on {executor.description}, writing {target}",
               file=sys.stderr)  # fmt: skip
         try:
             result = sweep(problem, points, output, executor, arguments.chunk_size,
-                           arguments.batch_size, _Progress(count))  # fmt: skip
+                           arguments.batch_size, _Progress(count), parts=parts)  # fmt: skip
         except KeyboardInterrupt:
             print(f"{PROGRAM}: interrupted; {output} holds the chunks written so far",
                   file=sys.stderr)  # fmt: skip
             return 130
     elapsed = time.monotonic() - started
+    files = math.ceil(result.designs / arguments.chunk_size)
+    where = f"{output}/ ({files} part file{'' if files == 1 else 's'})" if parts else str(output)
     print(
         f"{PROGRAM}: wrote {result.designs:,} designs ({result.feasible:,} feasible) to "
-        f"{output} in {elapsed:.1f} s ({result.designs / max(elapsed, 1e-9):,.0f} designs/s)"
+        f"{where} in {elapsed:.1f} s ({result.designs / max(elapsed, 1e-9):,.0f} designs/s)"
     )
     return 0
 

@@ -325,3 +325,80 @@ def test_local_processes_write_the_in_process_file(problem: Problem, tmp_path: P
     with LocalProcessExecutor(2) as executor:
         sweep(problem, points, tmp_path / "two.csv", executor, 10, 3)
     assert (tmp_path / "one.csv").read_bytes() == (tmp_path / "two.csv").read_bytes()
+
+
+def _read_parts(folder: Path) -> tuple[list[str], FloatArray]:
+    """A parts folder read back as one dataset (pyarrow takes the files in their names' order)."""
+    return _read_parquet(folder)
+
+
+def test_parts_read_back_as_the_single_file(problem: Problem, tmp_path: Path) -> None:
+    points = latin_hypercube(problem.space, 45, seed=3)
+    with InProcessExecutor() as executor:
+        sweep(problem, points, tmp_path / "one.parquet", executor, 4, 3)
+        folder = tmp_path / "parts.parquet"
+        folder.mkdir()
+        (folder / "part-000099.parquet").write_bytes(b"a stale part")
+        done: list[int] = []
+        result = sweep(problem, points, folder, executor, 4, 3, done.append, parts=True)
+    names = sorted(path.name for path in folder.iterdir())
+    assert names == [f"part-{index:06d}.parquet" for index in range(12)]  # the stale one gone
+    header, values = _read_parts(folder)
+    assert (header, values.tobytes()) == (
+        _read_parquet(tmp_path / "one.parquet")[0],
+        _read_parquet(tmp_path / "one.parquet")[1].tobytes(),
+    )
+    assert result.designs == 45
+    assert result.feasible == int(values[:, header.index("feasible")].sum())
+    assert done[-1] == 45 and done == sorted(done) and len(done) == 12
+    parquet = pq.ParquetFile(folder / "part-000011.parquet")
+    assert parquet.metadata.num_rows == 1 and parquet.schema_arrow.names == header
+    with pytest.raises(DesignError, match="parts are Parquet files"):
+        sweep(problem, points, tmp_path / "parts.csv", InProcessExecutor(), parts=True)
+    (tmp_path / "file.parquet").write_bytes(b"")
+    with pytest.raises(DesignError, match="writes a folder, and this is a file"):
+        sweep(problem, points, tmp_path / "file.parquet", InProcessExecutor(), parts=True)
+
+
+def test_the_command_writes_parts_and_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "out" / "sweep.parquet"
+    status = sweep_main([str(WORKED), "--designs", "20", "--seed", "4", "--chunk-size", "8",
+                        "--parts", "--output", str(path)])  # fmt: skip
+    assert status == 0
+    captured = capsys.readouterr()
+    assert f"to {path}/ (3 part files) in " in captured.out, captured.out
+    assert f"writing {path}/part-*.parquet" in captured.err, captured.err
+    header, values = _read_parts(path)
+    problem = read_problem(WORKED)
+    _assert_same_designs(values, _expected(problem, latin_hypercube(problem.space, 20, 4)))
+    assert header == sweep_columns(problem)
+
+
+@pytest.mark.integration
+def test_parts_written_by_dask_workers_and_a_pool_are_the_in_process_parts(
+    problem: Problem, tmp_path: Path
+) -> None:
+    pytest.importorskip("distributed")
+    from fishtail_design.dask_executor import DaskExecutor
+
+    points = latin_hypercube(problem.space, 150, seed=11)
+    with InProcessExecutor() as executor:
+        sweep(problem, points, tmp_path / "one.parquet", executor, 10, 3)
+        sweep(problem, points, tmp_path / "in-process.parquet", executor, 10, parts=True)
+    with LocalProcessExecutor(2) as executor:
+        sweep(problem, points, tmp_path / "pool.parquet", executor, 10, parts=True)
+    with DaskExecutor(workers=2) as executor:
+        result = sweep(problem, points, tmp_path / "dask.parquet", executor, 10, parts=True)
+    assert result.designs == 150
+    expected = _read_parquet(tmp_path / "one.parquet")
+    for name in ("in-process", "pool", "dask"):
+        folder = tmp_path / f"{name}.parquet"
+        header, values = _read_parts(folder)
+        assert header == expected[0]
+        _assert_same_designs(values, expected[1])
+        files = sorted(folder.iterdir())
+        assert [path.name for path in files] == [f"part-{i:06d}.parquet" for i in range(15)]
+        for path in files:  # the same bytes, whoever wrote them
+            assert path.read_bytes() == (tmp_path / "in-process.parquet" / path.name).read_bytes()
