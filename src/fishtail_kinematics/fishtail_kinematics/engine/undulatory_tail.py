@@ -254,8 +254,8 @@ class UndulatoryTail(Tail):
         self._seed_angles = np.ascontiguousarray(arm_angles[order])
         self._seed_distances = np.ascontiguousarray(slider_distances[order])
         # The scalar path's copies: bisect and float arithmetic on lists beat numpy per call.
-        self._seed_angle_list = self._seed_angles.tolist()
-        self._seed_distance_list = self._seed_distances.tolist()
+        self._seed_angle_list: list[float] = self._seed_angles.tolist()
+        self._seed_distance_list: list[float] = self._seed_distances.tolist()
 
     def _seed_at(self, theta3: float) -> float:
         """The seed AS at one arm angle: np.interp's value (its formula), from the lists."""
@@ -378,7 +378,7 @@ class UndulatoryTail(Tail):
         self, d: OscillatoryState, cos3: FloatArray, sin3: FloatArray
     ) -> UndulatoryState:
         # cos3, sin3 and the seed's variable are those of SW's angle to the body axis.
-        a = np.interp(d.fin_angle, self._seed_angles, self._seed_distances)
+        a = cast(FloatArray, np.interp(d.fin_angle, self._seed_angles, self._seed_distances))
         residual, slope = self._residual_and_slope(a, cos3, sin3)
         step = residual / slope
         for _ in range(LOOP_NEWTON_STEPS):
