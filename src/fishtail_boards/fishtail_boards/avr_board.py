@@ -36,6 +36,7 @@ from fishtail_plant.motor.dc_motor import (
     zero_load,
     zero_load_inertia,
 )
+from fishtail_plant.motor.motor_file import read_motor_file
 from fishtail_plant.values import tail_load_from_files
 
 #: Where ``make firmware`` puts the firmware and the simulator, under the workspace root.
@@ -308,7 +309,17 @@ def _parser() -> argparse.ArgumentParser:
     add("--link", help="keep a symlink to the pty at this path (removed on exit)")
     add("--build-dir", type=Path, help="where make firmware put its output (build/firmware)")
     add("--counts-per-rev", type=int, default=64, help="encoder counts per motor turn")
-    add("--gear-ratio", type=float, default=30.0, help="motor turns per carrier turn")
+    add(
+        "--gear-ratio",
+        type=float,
+        help="motor turns per carrier turn (default: 30, or --motor's default ratio)",
+    )
+    add(
+        "--motor",
+        type=Path,
+        help="the DC gear motor of this motor file (config/motors/; "
+        "default: the suite's, the Pololu 37D 12 V)",
+    )
     add(
         "--load",
         choices=SURROUNDINGS,
@@ -325,8 +336,12 @@ def _parser() -> argparse.ArgumentParser:
 
 def _motors(args: argparse.Namespace) -> list[DcChannelMotor]:
     """The two channels' motors the arguments describe (ValueError)."""
-    scale = Scale(args.counts_per_rev, args.gear_ratio)
-    parameters = dataclasses.replace(DcMotorParameters(), gear_ratio=scale.gear_ratio)
+    if args.motor is not None:
+        parameters = read_motor_file(args.motor).parameters(args.gear_ratio)
+        scale = Scale(args.counts_per_rev, parameters.gear_ratio)
+    else:
+        scale = Scale(args.counts_per_rev, 30.0 if args.gear_ratio is None else args.gear_ratio)
+        parameters = dataclasses.replace(DcMotorParameters(), gear_ratio=scale.gear_ratio)
     load: LoadTorque = zero_load
     load_inertia: LoadInertia = zero_load_inertia
     if args.load != NO_LOAD:

@@ -121,6 +121,22 @@ def test_motor_side_answers_pwms_with_encoder_counts():
         side.exchange("X 1 2 3")
 
 
+def test_the_motors_can_come_from_a_motor_file():
+    """``--motor FILE``: its motor at ``--gear-ratio`` or the file's default, else refused."""
+    from fishtail_boards.avr_board import _motors, _parser
+
+    motors = Path(__file__).resolve().parents[3] / "config" / "motors"
+    chosen = _motors(_parser().parse_args(["--motor", str(motors / "pololu-37d-12v.yaml"),
+                                           "--gear-ratio", "18.75"]))  # fmt: skip
+    assert chosen[0].motor.parameters.gear_ratio == 18.75 and chosen[0].scale.gear_ratio == 18.75
+    default = _motors(_parser().parse_args(["--motor", str(motors / "pololu-25d-hp-12v.yaml")]))
+    assert default[0].scale.gear_ratio == 46.85
+    with pytest.raises(ValueError, match="not offered"):
+        _motors(_parser().parse_args(["--motor", str(motors / "pololu-37d-12v.yaml"),
+                                      "--gear-ratio", "40"]))  # fmt: skip
+    assert _motors(_parser().parse_args([]))[0].motor.parameters == DC_PARAMETERS
+
+
 def test_the_cli_starts_the_counts_high_and_resets_on_sigusr1(avr_board, raw_port):
     """``--encoder-offset``: ``e`` answers it; SIGUSR1 (DTR) boots the firmware again at 0."""
     link, process, _ = avr_board("--encoder-offset", str(INT32_MAX - 5))
