@@ -11,12 +11,31 @@ firmware``, in simavr at 16 MHz paced to wall time, its motors the DC gear motor
   time added). The firmware's UART runs at 57600 baud in simulated time, so its figures include
   the line time, the firmware's own parsing and a millisecond of lockstep at most.
 
+Then the carrier speed profile at the motor's full beat rate (docs/firmware.md), all in simulated
+time (``fishtail_testkit.board_profile``, per simulated millisecond, so the figures do not depend
+on the machine's load):
+
+* the physics first (``fishtail_plant.motor.profile_reach``): the duty a profile asks of the
+  default motor (Pololu 37D 30:1) turning the tail, so the deepest depth within PWM 255 at each
+  beat and the fastest beat for depths 0.25, 0.45 and 0.5 (every phase, and the best one); and
+  the firmware with ``o 255 255`` in water: the carrier's speed over a revolution at full duty;
+* achieved depth (of the commanded), phase lag (rad, ms) and mean speed against beat frequency
+  (0.5-4 Hz) and depth (0.25, 0.5), in air and in water: the host following the law through the
+  stock firmware (30 Hz), the project's firmware with the law alone (version 1's loop, 30 Hz),
+  and with its profile controller (``k``: lead and feed-forward) at 30 Hz; at 100 and 200 Hz
+  depth 0.5 in water; and the AVR cycles of a PID frame of each, flash and RAM;
+* the same firmware with a motor that can follow depth 0.5 at 3.75 Hz in water (STRONG_MOTOR,
+  none of config/motors/), at 30, 100 and 200 Hz: what the firmware itself can do.
+
 Skipped (one line, exit 0) where the AVR toolchain is missing. Run with ``make bench`` (or
-``python bench/bench_firmware.py``).
+``python bench/bench_firmware.py``; ``--profile-only`` for the second part alone, about 3 min of
+simulated time, 5-10 min on a loaded machine; ``--no-profile`` for the first).
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import math
 import os
 import re
@@ -29,10 +48,21 @@ import time
 from pathlib import Path
 
 from bench_serial import percentile, round_trips, start_board
-from fishtail_boards.avr_board import built_artifacts
+from fishtail_boards.avr_board import SET_POINT_OUTPUT, built_artifacts, firmware_variables
 from fishtail_driver.protocol import encode_motor_speeds, encode_read_encoders
 from fishtail_driver.serial_backend import SerialBackend
 from fishtail_driver.serial_config import SerialConfig
+from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
+from fishtail_plant.motor.dc_motor import DcMotorParameters
+from fishtail_plant.motor.profile_reach import deepest_depth, fastest_mean
+from fishtail_plant.values import tail_load_from_files
+from fishtail_testkit.board_profile import (
+    BoardRun,
+    run_from_host,
+    run_on_board,
+    run_pwm,
+    tuning_for,
+)
 from measure import ROOT, cpu_seconds
 
 BAUD = 57600
@@ -120,12 +150,168 @@ def rtt_row(name: str, link: Path) -> str:
             f"| {1 / statistics.median(e_times):>8.0f}")  # fmt: skip
 
 
+PROFILE_BEATS_HZ = (0.5, 1.0, 2.0, 3.0, 3.75, 4.0)
+PROFILE_DEPTHS = (0.25, 0.5)
+PROFILE_LOADS = ("air", "water_swimming")
+#: The profile's fastest point: count 500 of 1920, as in the tests.
+PHASE_RAD = 2.0 * math.pi * 500 / 1920
+#: The profile controller's lead [ms] at each PID rate (about the loop's delay: half a frame and
+#: the motor's electrical lag; measured at 1 Hz in water to leave a lag within a few ms).
+LEAD_MS = {30: 8, 100: 8, 200: 8}
+#: The gains (u Kp:Kd:Ki:Ko) the profile controller runs with at each rate: Kp the integrating
+#: action, Kd the proportional one (per frame; doProfilePID); tried at 1 Hz, depth 0.5, in water
+#: (docs/firmware.md). The law alone and the host keep the stock 20:12:0:50.
+GAINS = {30: "40:24:0:50", 100: "60:80:0:50", 200: "80:160:0:50"}
+SETTLE_S = 1.0
+
+
+def physics() -> None:
+    """What the default motor can reach at all: duty within PWM 255 over a revolution."""
+    motor = DcMotorParameters()
+    phases = [2.0 * math.pi * i / 12 for i in range(12)]
+    print("\nThe default motor (Pololu 37D 12 V 30:1, DcMotorParameters()) following the law "
+          "exactly: the duty it asks over a revolution "
+          "(fishtail_plant.motor.profile_reach)")  # fmt: skip
+    print(f"no-load carrier speed {motor.no_load_speed_rad_s:.2f} rad/s; depth 0.5 asks a peak "
+          f"of {math.sqrt(3):.3f} x the mean")  # fmt: skip
+    for load in PROFILE_LOADS:
+        tail = tail_load_from_files(load)
+        cells = []
+        for beat in PROFILE_BEATS_HZ:
+            omega = 2.0 * math.pi * beat
+            depths = [deepest_depth(motor, omega, phase, tail.torque, tail.inertia, steps=45)
+                      for phase in phases]  # fmt: skip
+            at_phase = deepest_depth(motor, omega, PHASE_RAD, tail.torque, tail.inertia, steps=45)
+            worst = None if None in depths else min(d for d in depths if d is not None)
+            text = "none" if at_phase is None else f"{at_phase:.2f}"
+            text += "/" + ("none" if worst is None else f"{worst:.2f}")
+            cells.append(f"{beat:g} Hz {text}")
+        print(f"  {load}: deepest depth within PWM 255 (at phase 500 / at every phase): "
+              + ", ".join(cells))  # fmt: skip
+        for depth in (0.0, 0.25, 0.45, 0.5):
+            fastest = [fastest_mean(motor, depth, phase, tail.torque, tail.inertia)
+                       for phase in phases]  # fmt: skip
+            print(f"  {load}: depth {depth:.2f} within PWM 255 up to "
+                  f"{min(fastest) / (2 * math.pi):.2f} Hz at every phase, "
+                  f"{max(fastest) / (2 * math.pi):.2f} Hz at the best")  # fmt: skip
+
+
+def full_duty(folder: Path) -> None:
+    """The firmware's ``o 255 255`` in water: the carrier's speed over its revolutions."""
+    profile = CarrierSpeedProfile(2.0 * math.pi * 3.75, 0.5, PHASE_RAD)
+    done = run_pwm(ROOT / "build" / "firmware" / "fishtail", folder, 255, 4.0, "water_swimming")
+    kept = done.kept(2.0)
+    speeds = [record[3] for record in kept]
+    turned = kept[-1][2] - kept[0][2]
+    mean = turned / ((kept[-1][0] - kept[0][0]) * 1e-6)
+    print(f"\nsimavr, o 255 255, in water (the last 2 s of 4): mean carrier speed {mean:.2f} "
+          f"rad/s ({mean / (2 * math.pi):.2f} Hz), from {min(speeds):.2f} to "
+          f"{max(speeds):.2f} rad/s (peak/mean {max(speeds) / mean:.2f}); 3.75 Hz asks a "
+          f"mean of {2 * math.pi * 3.75:.2f} rad/s, depth 0.5 a peak of "
+          f"{profile.peak_speed_rad_s:.2f}")  # fmt: skip
+
+
+#: A motor that can follow depth 0.5 at 3.75 Hz in water (none in config/motors/ can): 24 V, 20 N m
+#: stall and 80 rad/s at no load at the carrier behind 30:1, a 400 W class motor (the 37D 30:1
+#: gives 1.37 N m and 34.6 rad/s at 12 V, 12 W at most), its rotor 2e-5 kg m².
+STRONG_MOTOR = DcMotorParameters.from_stall_and_no_load(
+    supply_voltage_v=24.0, stall_torque_n_m=20.0, no_load_speed_rad_s=80.0, gear_ratio=30.0,
+    gearbox_efficiency=0.76, rotor_inertia_kg_m2=2e-5,
+)  # fmt: skip
+
+
+@dataclasses.dataclass
+class ProfileSource:
+    """One way to follow the profile: a label, the PID rate, on the board or from the host."""
+
+    label: str
+    rate_hz: int
+    tuned: bool
+    host: bool = False
+    motor: DcMotorParameters | None = None
+
+
+def profile_row(source: ProfileSource, beat: float, depth: float, load: str, folder: Path) -> str:
+    """One table row: achieved depth and its ratio, lag, mean ratio, saturation, frame cycles."""
+    profile = CarrierSpeedProfile(2.0 * math.pi * beat, depth, PHASE_RAD)
+    run_s = SETTLE_S + max(3.0 / beat, 1.0)
+    run: BoardRun
+    if source.host:
+        run = run_from_host(ROOT / "build" / "firmware", folder, profile, run_s, load)
+    else:
+        build_dir = ROOT / "build" / "firmware" / "fishtail"
+        lead = LEAD_MS[source.rate_hz]
+        tuning = tuning_for(load, lead, source.motor) if source.tuned else None
+        output = firmware_variables(build_dir)["leftPID"][0] + SET_POINT_OUTPUT
+        gains = GAINS[source.rate_hz] if source.tuned else None
+        run = run_on_board(build_dir, folder, profile, source.rate_hz, run_s, load, tuning,
+                           gains, source.motor, watch=[output], time_frames=True)  # fmt: skip
+    result = run.following(profile, SETTLE_S)
+    lag_ms = 1e3 * result.phase_lag_rad / profile.mean_speed_rad_s
+    cycles = ""
+    if not source.host:
+        # The last watched value is updatePID's cycles, refreshed at each frame.
+        values = sorted({record[1][-1] for record in run.kept(SETTLE_S)})
+        cycles = f"{values[0]}-{values[-1]}" if values else ""
+    return (f"| {source.label:<16} | {beat:>4g} | {depth:.2f} | {load[:5]:<5} "
+            f"| {result.depth:.3f} | {result.depth_ratio:.2f} | {result.phase_lag_rad:+.2f} "
+            f"| {lag_ms:+5.0f} | {result.mean_speed_rad_s / profile.mean_speed_rad_s:.2f} "
+            f"| {run.saturated(SETTLE_S):.2f} | {cycles} |")  # fmt: skip
+
+
+def profiles(folder: Path) -> None:
+    """The profile table: every source, beat, depth and load."""
+    physics()
+    full_duty(folder / "full")
+    for name, path in (("stock", ROOT / "build" / "firmware"),
+                       ("project", ROOT / "build" / "firmware" / "fishtail")):  # fmt: skip
+        done = subprocess.run(["avr-size", str(path / "ROSArduinoBridge.elf")],
+                              capture_output=True, text=True)  # fmt: skip
+        text, data, bss = (int(field) for field in done.stdout.splitlines()[-1].split()[:3])
+        print(f"{name} firmware: flash {text + data} B, RAM {data + bss} B")
+    print("\n| source | beat Hz | depth | load | achieved | ratio | lag rad | lag ms | mean ratio "
+          "| PWM at 255 | frame cycles |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    host = ProfileSource("host, stock 30", 30, False, True)
+    law = ProfileSource("board law, 30", 30, False)
+    tuned = [ProfileSource(f"board k, {rate}", rate, True) for rate in (30, 100, 200)]
+    # In water every beat and depth; the faster rates at depth 0.5; in air a few rows.
+    plan = [("water_swimming", depth, beat,
+             [host, law, tuned[0], *(tuned[1:] if depth == 0.5 else [])])
+            for depth in PROFILE_DEPTHS for beat in PROFILE_BEATS_HZ]  # fmt: skip
+    plan += [("air", 0.5, beat, [host, tuned[0]]) for beat in (1.0, 2.0, 3.75)]
+    # The firmware with a motor that can (STRONG_MOTOR), at the target's beat.
+    strong = [ProfileSource(f"strong k, {rate}", rate, True, motor=STRONG_MOTOR)
+              for rate in (30, 100, 200)]  # fmt: skip
+    plan += [("water_swimming", 0.5, 3.75, strong)]
+    index = 0
+    for load, depth, beat, sources in plan:
+        for source in sources:
+            index += 1
+            run_folder = folder / f"run{index}"
+            run_folder.mkdir()
+            print(profile_row(source, beat, depth, load, run_folder), flush=True)
+    print("achieved: the first harmonic's depth; lag: of the fastest point (+: later); PWM at 255: "
+          "share of the milliseconds the left PWM was at +-255; frame cycles: updatePID's, "
+          "interrupts included.")  # fmt: skip
+
+
 def main() -> int:
     """Measure and print."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--profile-only", action="store_true", help="the profile part alone")
+    parser.add_argument("--no-profile", action="store_true", help="without the profile part")
+    args = parser.parse_args()
     print(__doc__.split("\n\n")[0])
     reason = build()
     if reason is not None:
         print(f"skipped: firmware in simavr: {reason}")
+        return 0
+    if not args.no_profile:
+        with tempfile.TemporaryDirectory(prefix="fishtail-bench-") as directory:
+            (Path(directory) / "full").mkdir()
+            profiles(Path(directory))
+    if args.profile_only:
         return 0
     print(f"{os.cpu_count()} CPUs, other work may be running; CPU in % of one core\n")
     with tempfile.TemporaryDirectory(prefix="fishtail-bench-") as directory:
