@@ -186,7 +186,11 @@ def test_slow_board_within_the_timeout_is_stamped_at_the_request_and_warns(fake_
     # the reply (as before) it would be 40 ms late, half the 80 ms delay.
     assert median < 0.03, f"stamps are {median * 1e3:.1f} ms (median) off the board's readings"
     assert_strictly_increasing(run.joints)
-    assert run.counter("discarded_replies") == 0 or run.counter("timeouts") > 0
+    # A reply is discarded only after one came late: a poll's timeout, or, while connecting, an
+    # 'e' the in-step check did not see in time (handshake_noise: a loaded machine adds to the
+    # board's 80 ms), whose late reply the fence then throws away.
+    late = run.counter("timeouts") + run.counter("handshake_noise")
+    assert run.counter("discarded_replies") == 0 or late > 0, run.statuses()[-1][2]
 
 
 def test_healthy_board_is_ok_with_the_measured_rate(fake_board, driver_run):
