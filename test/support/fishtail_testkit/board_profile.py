@@ -31,6 +31,7 @@ from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_plant.linkage_load.surroundings import NO_LOAD
 from fishtail_plant.motor.board_units import Scale
 from fishtail_plant.motor.dc_motor import DcMotorParameters
+from fishtail_plant.motor.profile_tuning import profile_tuning
 from fishtail_plant.values import tail_load_from_files
 from fishtail_testkit.modulation_fit import FollowingResult, measure_following
 
@@ -60,51 +61,11 @@ def profile_command(profile: CarrierSpeedProfile, scale: Scale, rate_hz: int) ->
     return f"f {mean_q6}:{round(profile.depth * 1000)}:{phase}:{revolution}"
 
 
-def feed_forward(
-    parameters: DcMotorParameters, scale: Scale, inertia_kg_m2: float, quadratic_n_m_s2: float
-) -> tuple[int, int, int, int]:
-    """``k``'s KV, KA, KS and KQ for a motor from its model and a load's mean figures.
-
-    KV: the PWM whose voltage balances the back-EMF at 1 count/ms (Q8); KA: the PWM whose current
-    accelerates the rotor and ``inertia_kg_m2`` (at the carrier) by 1 count/ms²; KS: the PWM whose
-    current holds the Coulomb friction; KQ: the PWM whose current holds a load torque
-    ``quadratic_n_m_s2`` ω² at 1 count/ms (Q8), through the gearbox.
-    """
-    p = parameters
-    pwm_per_volt = 255.0 / p.supply_voltage_v
-    rad_s = scale.rad_per_count * 1e3  # carrier rad/s at 1 count/ms
-    kn = p.torque_constant_n_m_a * p.gear_ratio
-    inertia = p.rotor_inertia_kg_m2 * p.gear_ratio**2 + inertia_kg_m2 / p.gearbox_efficiency
-    accelerating = inertia * rad_s * 1e3 / kn  # current for 1 count/ms²
-    friction = p.coulomb_friction_n_m / p.torque_constant_n_m_a
-    load = quadratic_n_m_s2 * rad_s**2 / (kn * p.gearbox_efficiency)
-    volts = p.resistance_ohm * pwm_per_volt
-    return (
-        round(kn * rad_s * pwm_per_volt * 256),
-        round(accelerating * volts),
-        round(friction * volts),
-        round(load * volts * 256),
-    )
-
-
-def load_figures(load: str) -> tuple[float, float]:
-    """The tail's mean inertia [kg m²] and mean ω² coefficient [N m s²] over a revolution."""
-    if load == NO_LOAD:
-        return 0.0, 0.0
-    tail = tail_load_from_files(load)
-    angles = [2.0 * math.pi * i / 72 for i in range(72)]
-    inertia = sum(tail.inertia(angle) for angle in angles) / len(angles)
-    quadratic = sum(tail.torque(angle, 1.0) for angle in angles) / len(angles)
-    return inertia, quadratic
-
-
 def tuning_for(
     load: str, lead_ms: int, parameters: DcMotorParameters | None = None, scale: Scale = SCALE
 ) -> str:
     """``k``'s argument for the motor (default: the 37D 30:1) turning the tail in ``load``."""
-    motor = parameters or dataclasses.replace(DcMotorParameters(), gear_ratio=scale.gear_ratio)
-    kv, ka, ks, kq = feed_forward(motor, scale, *load_figures(load))
-    return f"{lead_ms}:{kv}:{ka}:{ks}:{kq}"
+    return profile_tuning(load, scale, parameters, lead_ms)
 
 
 @dataclasses.dataclass
