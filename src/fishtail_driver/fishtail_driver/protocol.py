@@ -1,7 +1,7 @@
 r"""ROSArduinoBridge serial protocol: a pure codec (no rclpy, no I/O).
 
 Encodes the firmware's commands (``e``, ``m``, ``r``, ``o``, ``u``, ``b``, and the project
-firmware's ``v``, ``f``, ``i``: firmware/CHANGES.md), splits the byte
+firmware's ``v``, ``f``, ``i``, ``k``: firmware/CHANGES.md), splits the byte
 stream into reply lines (:class:`LineFramer`) and parses replies, raising :class:`ReplyError`
 with a countable ``kind`` and a precise ``reason`` for anything malformed; pure, so that it can be
 fuzzed and tested without a port. Speeds in ticks per PID frame:
@@ -49,7 +49,14 @@ PROFILE_REVOLUTION_MAX = 65535
 #: ``i``'s PID rate range [Hz].
 PID_RATE_MIN_HZ, PID_RATE_MAX_HZ = 1, 500
 
+#: ``k``'s fields: LEAD [ms] and KS [PWM] 0..255, KV, KA and KQ 0..32767.
+TUNING_LEAD_MAX_MS = 255
+TUNING_GAIN_MAX = 32767
+TUNING_FRICTION_MAX = 255
+
 OK_REPLY = "OK"
+#: The project firmware's refusal of ``f``, ``i`` or ``k`` arguments (nothing changed).
+ERR_REPLY = "ERR"
 INVALID_COMMAND_REPLY = "Invalid Command"
 
 CHANNELS = ("left", "right")
@@ -210,6 +217,84 @@ def encode_pid_rate(rate_hz: int) -> bytes:
     return f"i {rate_hz}\r".encode("ascii")
 
 
+@dataclasses.dataclass(frozen=True)
+class ProfileTuning:
+    """``k LEAD:KV:KA:KS[:KQ]``: how the project's firmware follows a profile.
+
+    The law taken ``lead_ms`` ahead of the count, and a feed-forward PWM from the law's speed
+    (``kv``, PWM per count/ms in 1/256), its change (``ka``, PWM per count/ms²), a constant
+    (``ks``, PWM) and its square (``kq``, PWM per (count/ms)² in 1/256; None: not sent, which the
+    firmware reads as 0). All 0 is the firmware's default loop.
+
+    Raises:
+        ValueError: a field outside the firmware's range (it would answer ERR).
+        TypeError: a field that is not an int.
+    """
+
+    lead_ms: int
+    kv: int
+    ka: int
+    ks: int
+    kq: int | None = None
+
+    def __post_init__(self) -> None:
+        """The firmware's ranges (``setProfileTuning``)."""
+        _check_range("LEAD (ms)", self.lead_ms, 0, TUNING_LEAD_MAX_MS)
+        _check_range("KV", self.kv, 0, TUNING_GAIN_MAX)
+        _check_range("KA", self.ka, 0, TUNING_GAIN_MAX)
+        _check_range("KS", self.ks, 0, TUNING_FRICTION_MAX)
+        if self.kq is not None:
+            _check_range("KQ", self.kq, 0, TUNING_GAIN_MAX)
+
+    @property
+    def argument(self) -> str:
+        """``LEAD:KV:KA:KS[:KQ]``."""
+        fields = (self.lead_ms, self.kv, self.ka, self.ks)
+        fields += () if self.kq is None else (self.kq,)
+        return ":".join(map(str, fields))
+
+    def encode(self) -> bytes:
+        """The command's bytes (25 characters of argument at most: within ``argv1``)."""
+        argument = self.argument
+        assert len(argument) <= MAX_PROFILE_ARGUMENT_CHARS
+        return f"k {argument}\r".encode("ascii")
+
+
+_TUNING_RE = re.compile(r"(?:0|[1-9][0-9]{0,5})(?::(?:0|[1-9][0-9]{0,5})){3,4}")
+
+
+def parse_profile_tuning(text: str) -> ProfileTuning | None:
+    """``LEAD:KV:KA:KS[:KQ]`` (a parameter's value) as a :class:`ProfileTuning`; "" is None.
+
+    Stricter than the firmware's ``atol`` and ``strtok_r``: four or five decimal integers
+    without signs or spaces, colons between them (the firmware skips empty fields and ignores a
+    sixth, which would shift or drop a field unnoticed).
+
+    Raises:
+        ValueError: anything else, or a field outside the firmware's range, with the reason.
+    """
+    stripped = text.strip()
+    if not stripped:
+        return None
+    if _TUNING_RE.fullmatch(stripped) is None:
+        raise ValueError(
+            f"{text!r} is not LEAD:KV:KA:KS[:KQ] (four or five non-negative integers joined by "
+            "colons, e.g. 8:5955:1889:5:690)"
+        )
+    fields = [int(field) for field in stripped.split(":")]
+    return ProfileTuning(*fields)
+
+
+def encode_profile_tuning(lead_ms: int, kv: int, ka: int, ks: int, kq: int | None = None) -> bytes:
+    """``k LEAD:KV:KA:KS[:KQ]`` (see :class:`ProfileTuning`).
+
+    Raises:
+        ValueError: a field outside the firmware's range (it would answer ERR).
+        TypeError: a field that is not an int.
+    """
+    return ProfileTuning(lead_ms, kv, ka, ks, kq).encode()
+
+
 def channel_ticks(channel: str, ticks: int) -> tuple[int, int]:
     """(left, right) ticks for driving only ``channel`` ("left" or "right").
 
@@ -365,6 +450,23 @@ def parse_ok(line: bytes) -> None:
     _common_rejections(text, line, expected)
     if text == OK_REPLY:
         return
+    if _ENCODERS_RE.fullmatch(text) or _BAUD_RE.fullmatch(text):
+        raise ReplyError("unexpected", f"got {text!r} where {expected} (replies out of step)", line)
+    raise ReplyError("garbled", f"got {text[:40]!r} where {expected}", line)
+
+
+def parse_accepted(line: bytes) -> bool:
+    """Parse the reply to ``f``, ``i`` or ``k``: True for ``OK``, False for ``ERR`` (refused).
+
+    Raises:
+        ReplyError: ``invalid_command`` (a firmware without the command: the stock one, or
+            version 1's for ``k``), or anything else (``unexpected`` for another command's reply).
+    """
+    expected = "'OK' or 'ERR' was expected"
+    text = _text(line)
+    _common_rejections(text, line, expected)
+    if text in (OK_REPLY, ERR_REPLY):
+        return text == OK_REPLY
     if _ENCODERS_RE.fullmatch(text) or _BAUD_RE.fullmatch(text):
         raise ReplyError("unexpected", f"got {text!r} where {expected} (replies out of step)", line)
     raise ReplyError("garbled", f"got {text[:40]!r} where {expected}", line)

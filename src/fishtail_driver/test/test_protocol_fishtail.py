@@ -176,3 +176,57 @@ def test_every_profile_the_driver_accepts_encodes(mean, depth, phase, zero):
     fields = mode.fields(CarrierSpeedProfile(mean, depth, phase), zero)
     if fields is not None:
         assert fields.encode().startswith(b"f ")
+
+
+def test_k_encodes_within_the_firmware_s_ranges_and_refuses_what_it_would_answer_err():
+    from fishtail_driver.protocol import ProfileTuning, encode_profile_tuning
+
+    assert encode_profile_tuning(8, 5955, 1889, 5, 690) == b"k 8:5955:1889:5:690\r"
+    assert encode_profile_tuning(8, 5955, 1889, 5) == b"k 8:5955:1889:5\r"  # KQ left out
+    assert encode_profile_tuning(0, 0, 0, 0, 0) == b"k 0:0:0:0:0\r"  # the default loop
+    largest = encode_profile_tuning(255, 32767, 32767, 255, 32767)
+    assert largest == b"k 255:32767:32767:255:32767\r" and len(largest) - 3 <= 31  # argv1
+    refused = ((256, 0, 0, 0), (-1, 0, 0, 0), (0, 32768, 0, 0), (0, 0, 32768, 0),
+               (0, 0, 0, 256), (0, 0, 0, -1), (0, 0, 0, 0, 32768), (0, 0, 0, 0, -1))  # fmt: skip
+    for fields in refused:
+        with pytest.raises(ValueError, match="outside"):
+            encode_profile_tuning(*fields)
+    with pytest.raises(TypeError):
+        ProfileTuning(8, 5955.0, 1889, 5)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["8:5955:1889", "8::5955:1889:5", "8:5955:1889:5:690:1", "-8:5955:1889:5", "+8:1:1:1",
+     "8 :5955:1889:5", "8:5955:1889:5:", "a:b:c:d", "0x8:1:1:1", "08:1:1:1", "8;1;1;1",
+     "256:1:1:1", "8:99999:1:1", "1:2:3:256", "1:2:3:4:1000000"],
+)  # fmt: skip
+def test_a_malformed_tuning_parameter_is_refused_with_the_reason(text):
+    from fishtail_driver.protocol import parse_profile_tuning
+
+    with pytest.raises(ValueError, match=r"LEAD:KV:KA:KS|outside"):
+        parse_profile_tuning(text)
+
+
+def test_a_tuning_parameter_reads_as_the_firmware_s_fields():
+    from fishtail_driver.protocol import ProfileTuning, parse_profile_tuning
+
+    assert parse_profile_tuning("") is None and parse_profile_tuning("  ") is None
+    assert parse_profile_tuning("8:5955:1889:5:690") == ProfileTuning(8, 5955, 1889, 5, 690)
+    assert parse_profile_tuning(" 8:5955:1889:5 ") == ProfileTuning(8, 5955, 1889, 5)
+    assert parse_profile_tuning("0:0:0:0").argument == "0:0:0:0"
+
+
+def test_ok_err_and_invalid_command_answer_k():
+    from fishtail_driver.protocol import parse_accepted
+
+    assert parse_accepted(b"OK") is True
+    assert parse_accepted(b"ERR") is False
+    with pytest.raises(ReplyError) as invalid:
+        parse_accepted(b"Invalid Command")
+    assert invalid.value.kind == "invalid_command"
+    for line, kind in ((b"12 13", "unexpected"), (b"57600", "unexpected"), (b"OKAY", "garbled"),
+                       (b"", "empty"), (b"O\x00K", "binary")):  # fmt: skip
+        with pytest.raises(ReplyError) as error:
+            parse_accepted(line)
+        assert error.value.kind == kind, line
