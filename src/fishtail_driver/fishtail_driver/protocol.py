@@ -249,7 +249,7 @@ class ProfileTuning:
     @property
     def argument(self) -> str:
         """``LEAD:KV:KA:KS[:KQ]``."""
-        fields = (self.lead_ms, self.kv, self.ka, self.ks)
+        fields: tuple[int, ...] = (self.lead_ms, self.kv, self.ka, self.ks)
         fields += () if self.kq is None else (self.kq,)
         return ":".join(map(str, fields))
 
