@@ -103,6 +103,12 @@ class CommandState:
         with self._lock:
             self._mode = mode
 
+    @property
+    def mode(self) -> BoardMode:
+        """Who follows profiles on the board connected now."""
+        with self._lock:
+            return self._mode
+
     def forget_ack(self) -> None:
         """Nothing acknowledged (a connect, a board reset): the command goes out again now."""
         with self._lock:
@@ -167,6 +173,7 @@ class CommandState:
         profile = acked.encode().decode("ascii").strip() if isinstance(acked, ProfileFields) else ""
         values["acked_profile"] = profile
         values["firmware"] = mode.firmware
+        values["profile_tuning"] = mode.tuning
         frame_ms = "" if capabilities is None else str(capabilities.pid_frame_ms)
         values["board_pid_frame_ms"] = frame_ms
         return values

@@ -4,8 +4,10 @@ At every connect the serial backend asks the board ``v``; :func:`board_mode` tur
 into a :class:`BoardMode`: on the project's firmware (firmware/CHANGES.md) the board follows the
 profile itself and the driver sends it as one ``f`` (:meth:`BoardMode.fields`); on the stock
 firmware, or when ``v`` failed, or when the encoder's revolution is not a whole number of counts
-the firmware can hold, the driver follows it on the host with ``m`` as before. Pure (no I/O, no
-threads). docs/serial.md ("The project's firmware").
+the firmware can hold, the driver follows it on the host with ``m`` as before. With the profile
+on the board, :func:`tune_board` sends ``serial_profile_tuning`` as ``k`` and notes what became of
+it (the exchange is passed in: no I/O of its own, no threads). docs/serial.md ("The project's
+firmware").
 
 >>> from fishtail_driver.protocol import BoardCapabilities
 >>> from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 from fishtail_driver.protocol import (
     PROFILE_DEPTH_UNIT,
@@ -28,7 +31,10 @@ from fishtail_driver.protocol import (
     PROFILE_MEAN_SHIFT,
     PROFILE_REVOLUTION_MAX,
     BoardCapabilities,
+    ProfileTuning,
+    ReplyError,
     encode_profile,
+    parse_accepted,
 )
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_plant.motor.board_units import Scale
@@ -36,6 +42,8 @@ from fishtail_plant.motor.board_units import Scale
 STOCK_FIRMWARE = "stock ROSArduinoBridge"
 ON_BOARD = "profile on board"
 ON_HOST = "profile on host"
+#: ``profile_tuning`` in /diagnostics when ``serial_profile_tuning`` is empty.
+TUNING_NOT_SET = "not set (the board's default loop)"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,6 +91,8 @@ class BoardMode:
     capabilities: BoardCapabilities | None = None
     #: Counts per carrier revolution, when the board follows the profile (None: the host does).
     revolution: int | None = None
+    #: What became of ``serial_profile_tuning`` on this board (:func:`tune_board`).
+    tuning: str = TUNING_NOT_SET
 
     @property
     def on_board(self) -> bool:
@@ -149,3 +159,45 @@ def board_mode(reply: BoardCapabilities | None | str, enabled: bool, scale: Scal
 
 #: Before the first answer to ``v``.
 NOT_CONNECTED = BoardMode("not known yet (not connected)")
+
+
+#: One exchange with the board: the request's bytes and the reply's parser; the serial link's
+#: ``exchange`` (an ``Answered`` with ``value``, or a ``Failed`` with ``kind`` and ``reason``).
+Exchange = Callable[[bytes, Callable[[bytes], str]], object]
+
+
+def _tuning_reply(line: bytes) -> str:
+    """``OK``, ``ERR`` or ``Invalid Command``: answers, not faults of the link."""
+    try:
+        return "OK" if parse_accepted(line) else "ERR"
+    except ReplyError as error:
+        if error.kind == "invalid_command":
+            return "Invalid Command"
+        raise
+
+
+def tune_board(mode: BoardMode, tuning: ProfileTuning | None, exchange: Exchange) -> BoardMode:
+    """Send ``k`` where the board follows the profile; ``mode`` with what became of it.
+
+    Sent only on the project's firmware with the profile on the board (elsewhere ``k`` would
+    mean nothing, or is unknown). A board that answers ``ERR`` or ``Invalid Command`` (the first
+    version of the firmware) keeps its default loop; so does one that did not answer.
+    """
+    if tuning is None:
+        return dataclasses.replace(mode, tuning=TUNING_NOT_SET)
+    command = f"k {tuning.argument}"
+    if mode.capabilities is None:
+        why = "stock firmware" if mode.firmware.startswith(STOCK_FIRMWARE) else "firmware unknown"
+        return dataclasses.replace(mode, tuning=f"{command} not sent ({why})")
+    if not mode.on_board:
+        return dataclasses.replace(mode, tuning=f"{command} not sent ({ON_HOST})")
+    reply = exchange(tuning.encode(), _tuning_reply)
+    answer = getattr(reply, "value", None)
+    if answer == "OK":
+        return dataclasses.replace(mode, tuning=f"{command} (acknowledged)")
+    if answer is not None:
+        state = f"refused by the board: {command} answered {answer!r}; its default loop"
+    else:
+        failure = f"{getattr(reply, 'kind', '?')}: {getattr(reply, 'reason', '?')}"
+        state = f"not acknowledged: {command} ({failure}); the board's default loop"
+    return dataclasses.replace(mode, tuning=state)

@@ -45,6 +45,7 @@ from fishtail_common.ros import (
 )
 from fishtail_common.stream_timing import PersistentStatus, RateCheck
 from fishtail_driver.backends import StopOutcome
+from fishtail_driver.board_profile import TUNING_NOT_SET
 from fishtail_driver.parameters import (
     DRIVER_PARAMETERS,
     SPECS,
@@ -323,6 +324,8 @@ class DriverNode(SuiteNodeBase):
     def _on_diagnostics(self) -> None:
         level, text, values = self.backend.status()
         firmware = values.get("firmware", "")
+        if values.get("profile_tuning", TUNING_NOT_SET) != TUNING_NOT_SET:
+            firmware += f"; profile tuning: {values['profile_tuning']}"
         if values.get("connected") == "true" and firmware != self.firmware_logged:
             self.firmware_logged = firmware
             self.get_logger().info(f"motor board on {self.backend.hardware_id}: {firmware}")

@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from fishtail_common.interface import CARRIER_JOINT
 from fishtail_common.parameters import ParameterSpec, ParameterValue
 from fishtail_driver.backends import MotorBackend, SimBackend, SimMotor
+from fishtail_driver.protocol import ProfileTuning, parse_profile_tuning
 from fishtail_kinematics.engine.carrier_profile import DEFAULT_TOP_SPEED_RAD_S
 from fishtail_plant.linkage_load.surroundings import NO_LOAD, SURROUNDINGS
 from fishtail_plant.motor.board_units import Scale
@@ -123,6 +124,11 @@ DRIVER_PARAMETERS: tuple[ParameterSpec, ...] = (
                   "(it answers 'v'), send a speed profile once ('f') and let the board follow it "
                   "at every PID frame; false: follow it on the host with 'm' at every encoder "
                   "sample, as on the stock firmware (docs/serial.md)", read_only=True),
+    ParameterSpec("serial_profile_tuning", "", "serial: on the project's motor-board firmware, "
+                  "how the board follows a profile: 'k LEAD:KV:KA:KS[:KQ]' sent at every connect "
+                  "(the law LEAD ms ahead, a feed-forward PWM from its speed, change, friction "
+                  "and speed squared; docs/firmware.md, e.g. 8:5955:1889:5:690 for the 37D in "
+                  "water); empty: not sent, the firmware's default loop", read_only=True),
     ParameterSpec("serial_stale_timeout_sec", 1.0, "serial: no valid reply for this long: "
                   "reconnect", "s", 0.1, 60.0, read_only=True),
     # The pivot actuator: a lead screw shifting the tail's pivot S along the body axis
@@ -235,8 +241,17 @@ def _serial_backend(
             handshake_timeout_s=float(values["serial_handshake_timeout_sec"]),
             stale_timeout_s=max(float(values["serial_stale_timeout_sec"]), 2.0 * read_timeout_s),
             profile_on_board=bool(values["serial_profile_on_board"]),
+            profile_tuning=_profile_tuning(str(values["serial_profile_tuning"])),
         )
     )
+
+
+def _profile_tuning(text: str) -> ProfileTuning | None:
+    """``serial_profile_tuning``'s value, or a one-line ValueError naming the parameter."""
+    try:
+        return parse_profile_tuning(text)
+    except ValueError as error:
+        raise ValueError(f"serial_profile_tuning: {error}") from None
 
 
 _BACKENDS: dict[str, Callable[[ParameterValues, LoadTorque, LoadInertia], MotorBackend]] = {
@@ -259,6 +274,7 @@ def make_backend(
     Raises:
         ValueError: with the reason, for settings the backend cannot work with.
     """
+    _profile_tuning(str(values["serial_profile_tuning"]))  # refused with any backend
     return _BACKENDS[str(values["backend"])](values, load, load_inertia)
 
 

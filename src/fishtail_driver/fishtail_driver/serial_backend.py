@@ -6,8 +6,9 @@ and reconnects with backoff, polls the encoder, sends and re-sends the speed (on
 keeps commanding, so the board's own auto-stop takes over if the node hangs) and counts every
 fault. :meth:`SerialBackend.read` returns each new sample once, so ``motor/joint_state`` carries
 only real readings. At every connect it asks the board ``v``: the project's firmware follows a
-speed profile itself, sent as one ``f`` (:mod:`fishtail_driver.board_profile`); on the stock
-firmware the node follows it on the host with ``m``. Behaviour, faults and status: docs/serial.md.
+speed profile itself, sent as one ``f`` after ``profile_tuning``'s ``k`` if set
+(:mod:`fishtail_driver.board_profile`); on the stock firmware the node follows it on the host
+with ``m``. Behaviour, faults and status: docs/serial.md.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from collections.abc import Callable
 from fishtail_common.interface import Level
 from fishtail_driver.backends import EncoderSample, StopOutcome
 from fishtail_driver.board_command import STOPPED, BoardCommand, CommandState, Pending
-from fishtail_driver.board_profile import ProfileFields, board_mode
+from fishtail_driver.board_profile import BoardMode, ProfileFields, board_mode, tune_board
 from fishtail_driver.encoder_tracking import EncoderTracker
 from fishtail_driver.protocol import (
     channel_ticks,
@@ -87,6 +88,7 @@ class SerialBackend:
         self._final_stop = "not sent"
         self._last_rebase: tuple[str, float] | None = None  # (why, when)
         self._first_after_connect = False  # the next reading is the first since connecting
+        self._retune = False  # k again: the board was reset (I/O thread only)
 
     # ------------------------------------------------------------------------------------------
     # MotorBackend interface (called from the node's threads; never blocks on I/O)
@@ -305,7 +307,7 @@ class SerialBackend:
         # Which firmware: the project's follows a profile itself (asked again at every connect).
         query = self._link.exchange(encode_query_firmware(), parse_capabilities)
         answer = query.value if isinstance(query, Answered) else f"{query.kind}: {query.reason}"
-        self._commands.set_mode(board_mode(answer, config.profile_on_board, self.scale))
+        self._tune(board_mode(answer, config.profile_on_board, self.scale))
         # The first reading decides whether the board was reset while we were away.
         # (Not published if stale: then the first poll's reading decides.)
         self._first_after_connect = True
@@ -330,6 +332,8 @@ class SerialBackend:
             if self._closing.is_set():
                 self._send_final_stop()
                 return
+            if self._retune:
+                self._tune(self._commands.mode)
             now = self._clock()
             if now >= next_path_check:
                 self._link.check_path()
@@ -368,6 +372,11 @@ class SerialBackend:
             timeout = deadline - self._clock()
             if timeout > 0:
                 self._wake.wait(timeout)
+
+    def _tune(self, mode: BoardMode) -> None:
+        """``k`` where the board follows the profile: after ``v``, and after a board reset."""
+        self._retune = False
+        self._commands.set_mode(tune_board(mode, self.config.profile_tuning, self._link.exchange))
 
     def _pending(self, now: float) -> Pending:
         """The command now; ``f``'s phase from the tail channel's count at carrier angle 0."""
@@ -451,6 +460,7 @@ class SerialBackend:
                 self._last_rebase = (tracked.rebase, self._clock())
                 if not after_connect:
                     self._commands.forget_ack()
+                    self._retune = True
             self._last_pair = pair
             self._continuous_counts = self._tracker.total
             self._latest = tracked.sample

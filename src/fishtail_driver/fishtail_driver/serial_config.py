@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from fishtail_driver.protocol import CHANNELS, MAX_REPLY_BYTES, encode_update_pid
+from fishtail_driver.protocol import CHANNELS, MAX_REPLY_BYTES, ProfileTuning, encode_update_pid
 from fishtail_plant.motor.board_units import Scale
 
 
@@ -37,6 +37,8 @@ class SerialConfig:
         phase_warn_s: status() is WARN for this long after the angle was re-based.
         profile_on_board: on the project's firmware, let the board follow speed profiles (one
             ``f``); False: the host follows them with ``m`` on any firmware.
+        profile_tuning: on the project's firmware with the profile on board, the ``k`` sent
+            after ``v`` at every connect and board reset (None: not sent, its default loop).
 
     Raises:
         ValueError: a setting that cannot work (naming it and its bound), e.g. a resend period
@@ -64,6 +66,7 @@ class SerialConfig:
     command_hold_s: float | None = None
     phase_warn_s: float = 10.0
     profile_on_board: bool = True
+    profile_tuning: ProfileTuning | None = None
 
     def __post_init__(self) -> None:
         """Reject settings that cannot work, with the reason."""

@@ -230,3 +230,40 @@ def test_ok_err_and_invalid_command_answer_k():
         with pytest.raises(ReplyError) as error:
             parse_accepted(line)
         assert error.value.kind == kind, line
+
+
+def test_the_tuning_goes_out_where_the_board_follows_the_profile_and_its_answer_is_noted():
+    from fishtail_driver.board_profile import TUNING_NOT_SET, tune_board
+    from fishtail_driver.protocol import ProfileTuning
+    from fishtail_driver.serial_link import Answered, Failed
+
+    tuning = ProfileTuning(8, 5955, 1889, 5, 690)
+    sent: list[bytes] = []
+
+    def answering(line: bytes):
+        def exchange(payload, parse):
+            sent.append(payload)
+            return Answered(parse(line), 0.0, 0.0)
+
+        return exchange
+
+    on_board = board_mode(FISHTAIL, True, POLOLU)
+    acked = tune_board(on_board, tuning, answering(b"OK"))
+    assert acked.tuning == "k 8:5955:1889:5:690 (acknowledged)" and acked.on_board
+    assert sent == [b"k 8:5955:1889:5:690\r"]
+    for line in (b"ERR", b"Invalid Command"):
+        refused = tune_board(on_board, tuning, answering(line))
+        assert refused.tuning.startswith("refused by the board: k 8:5955:1889:5:690 answered")
+        assert line.decode() in refused.tuning and refused.on_board  # f still goes out
+    lost = tune_board(on_board, tuning, lambda payload, parse: Failed("timeouts", "no reply"))
+    assert lost.tuning.startswith("not acknowledged: k 8:") and "timeouts" in lost.tuning
+    sent.clear()
+    # Not sent: none set, the stock firmware, the host following, v failed.
+    assert tune_board(on_board, None, answering(b"OK")).tuning == TUNING_NOT_SET
+    stock = tune_board(board_mode(None, True, POLOLU), tuning, answering(b"OK"))
+    assert stock.tuning == "k 8:5955:1889:5:690 not sent (stock firmware)"
+    host = tune_board(board_mode(FISHTAIL, False, POLOLU), tuning, answering(b"OK"))
+    assert host.tuning == "k 8:5955:1889:5:690 not sent (profile on host)"
+    unknown = tune_board(board_mode("timeouts: no reply", True, POLOLU), tuning, answering(b"OK"))
+    assert unknown.tuning.endswith("not sent (firmware unknown)")
+    assert sent == []
