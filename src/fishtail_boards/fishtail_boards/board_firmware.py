@@ -2,10 +2,10 @@ r"""The emulated ROSArduinoBridge firmware: parses commands, answers them, moves
 
 Our reading of the firmware's source (hbrobotics ``ROSArduinoBridge.ino`` and
 ``diff_controller.h``; the joshnewans variant's ``o`` and ``b`` reply; with ``firmware="fishtail"``
-the project's patch: ``v``, ``f`` with :mod:`fishtail_boards.board_profile_law`, ``i``), quirks
-included: byte-wise
-parsing that only CR runs, a 16-bit ``atoi``, short argument buffers, the speed loop of
-:class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` on its frame grid, the auto-stop and
+the project's patch: ``v``, ``f`` and ``k`` with :mod:`fishtail_boards.board_profile_law`,
+``i``), quirks included: byte-wise parsing that only CR runs, a 16-bit ``atoi``, short argument
+buffers, the speed loop of :class:`fishtail_plant.motor.speed_loop.FirmwareSpeedLoop` on its
+frame grid (with ``k``, the profile's own controller), the auto-stop and
 wrapping 32-bit counts; every PWM it writes drives a motor of :mod:`fishtail_boards.board_motors`.
 Pure (no pty, no threads; time is passed in), so that tests can drive it exactly. What it
 emulates and where it was corrected: docs/serial.md ("The emulated board").
@@ -225,10 +225,17 @@ class Firmware:
             for when in self.timer.due(frame_at):
                 self._move_to(when)
                 counts = self._counts()
-                if self.profile.on and self.loop.moving:  # the targets from the counts just read
+                profiled = self.profile.on and self.loop.moving
+                if profiled:  # the targets from the counts just read
                     for channel, point in enumerate(self.loop.set_points):
-                        point.target_ticks_per_frame = self.profile.target(channel, counts[channel])
-                self.frames.append((when, counts, self.loop.frame(counts)))
+                        ticks = wrap_int16(counts[channel] - point.prev_enc)  # the last frame's
+                        point.target_ticks_per_frame = self.profile.target(
+                            channel, counts[channel], ticks
+                        )
+                if profiled and self.profile.tuned:  # k: the profile's own controller
+                    self.frames.append((when, counts, self.profile.control(self.loop, counts)))
+                else:
+                    self.frames.append((when, counts, self.loop.frame(counts)))
                 self._drive_motors()
         self._move_to(now)
 
@@ -300,14 +307,14 @@ class Firmware:
             return b"OK\r\n"
         if cmd == "u":
             return self._update_gains(command.argv1)
-        if self.config.firmware == "fishtail" and cmd in ("v", "f", "i"):
+        if self.config.firmware == "fishtail" and cmd in ("v", "f", "i", "k"):
             return self._fishtail_command(cmd, command.argv1, arg1, now, auto_stop_s)
         return b"Invalid Command\r\n"
 
     def _fishtail_command(
         self, cmd: str, argv1: bytes, arg1: int, now: float, auto_stop_s: float
     ) -> bytes:
-        """The project's commands (firmware/CHANGES.md): ``v``, ``f``, ``i``."""
+        """The project's commands (firmware/CHANGES.md): ``v``, ``f``, ``i``, ``k``."""
         if cmd == "v":
             rate, frame_ms = self.scale.pid_rate_hz, self.timer.frame_ms
             return (
@@ -324,12 +331,16 @@ class Firmware:
             else:
                 self.loop.moving = True  # the targets come at the next frame
             return b"OK\r\n"
+        if cmd == "k":  # from the next frame on, in units that do not depend on the rate
+            accepted = self.profile.set_tuning(argv1, self.timer.frame_ms)
+            return b"OK\r\n" if accepted else b"ERR\r\n"
         if not 1 <= arg1 <= 500:
             return b"ERR\r\n"
         self.loop.command((0, 0), self._counts())  # stops and resets as m 0 0 does
         self.profile.on = False
         self._drive_motors()
         self._set_pid_rate(arg1, now)
+        self.profile.retune(self.timer.frame_ms)  # k's per-frame factors at the new rate
         return b"OK\r\n"
 
     def _set_pid_rate(self, rate_hz: int, now: float) -> None:

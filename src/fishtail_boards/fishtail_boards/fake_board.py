@@ -46,9 +46,10 @@ def _parser() -> argparse.ArgumentParser:
         "--firmware",
         choices=FIRMWARES,
         default="stock",
-        help="stock: ROSArduinoBridge as it is ('v', 'f', 'i' are Invalid Command); fishtail: "
-        "the project's firmware (firmware/CHANGES.md): 'v' capabilities, 'f' the carrier speed "
-        "profile followed at every PID frame, 'i' the PID rate",
+        help="stock: ROSArduinoBridge as it is ('v', 'f', 'i', 'k' are Invalid Command); "
+        "fishtail: the project's firmware (firmware/CHANGES.md): 'v' capabilities, 'f' the "
+        "carrier speed profile followed at every PID frame, 'i' the PID rate, 'k' the profile "
+        "controller (lead, feed-forward, its own PID), in the firmware's integers",
     )
     add(
         "--motor",

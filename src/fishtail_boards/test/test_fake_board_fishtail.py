@@ -1,4 +1,6 @@
-"""The emulation of the project's firmware: ``v``, ``f`` (the integer law), ``i``; stock unchanged.
+"""The emulation of the project's firmware: ``v``, ``f`` (the integer law), ``i``, ``k``.
+
+The stock firmware's answers are unchanged.
 
 The same answers as the firmware in simavr (test_fishtail_firmware.py), and at every PID frame
 the targets of fishtail_profile.h's integer law, which stay within its rounding of the float law
@@ -53,7 +55,7 @@ def test_the_emulation_answers_as_the_project_firmware_in_simavr():
     assert ask(board, "v", 1.0) == "fishtail 1 pid_hz=30 pid_ms=33 profile=1"
 
 
-@pytest.mark.parametrize("command", ["v", "f 64:500:0:1920", "i 100"])
+@pytest.mark.parametrize("command", ["v", "f 64:500:0:1920", "i 100", "k 8:5955:1889:5:690"])
 def test_the_stock_emulation_answers_the_new_commands_invalid(command):
     assert ask(firmware("stock"), command) == "Invalid Command"
 
@@ -113,3 +115,68 @@ def test_setprofile_converts_in_the_avrs_float_and_keeps_the_carry_while_on():
     law.carry = [17, 3]
     assert law.set_profile(b"1229:500:0:1920::") and law.carry == [17, 3]  # still on
     assert not law.set_profile(b"1229:500::") and law.scale == round(1229 / math.sqrt(0.75))
+
+
+def test_k_is_taken_and_refused_as_the_firmware_does():
+    """The same answers as test_fishtail_firmware.py's; a refused k changes nothing."""
+    board = firmware()
+    assert ask(board, "k 8:5955:1889:5:690") == "OK"
+    law = board.profile
+    assert (law.lead_ms, law.kv, law.ka, law.ks, law.kq, law.tuned) == (8, 5955, 1889, 5, 690, True)
+    # profileRetune at 33 ms frames: 8 * 1024 / 33, kv * 4 / 33, ka * 1024 / 33², kq * 256 / 33².
+    assert (law.lead_k, law.kv_k, law.ka_k, law.kq_k) == (248, 721, 1776, 162)
+    refused = ["k 8:5955:1889", "k 256:0:0:0", "k -1:0:0:0", "k 0:32768:0:0",
+               "k 0:0:32768:0", "k 0:0:0:256", "k 0:0:0:0:32768", "k 0:0:0:0:-1"]  # fmt: skip
+    assert [ask(board, command) for command in refused] == ["ERR"] * len(refused)
+    assert (law.lead_ms, law.kv, law.kq) == (8, 5955, 690)
+    assert ask(board, "k 8:5955:1889:5") == "OK" and law.kq == 0  # KQ optional
+    assert ask(board, "i 100") == "OK" and (law.lead_k, law.kv_k) == (819, 2382)  # kept, retuned
+    assert ask(board, "k 0:0:0:0") == "OK" and not law.tuned  # version 1's loop
+    assert ask(board, "v") == "fishtail 1 pid_hz=100 pid_ms=10 profile=1"
+    board.power_on(1.0)  # a reset: k's defaults again
+    assert not board.profile.tuned and board.profile.kv == 0
+
+
+def run_in_water(tuning: str | None, run_s: float = 7.0):
+    """1 Hz, depth 0.5, fastest at count 500, the tail in water, at 30 Hz: per ms, board time."""
+    from fishtail_plant.values import tail_load_from_files
+
+    tail = tail_load_from_files("water_swimming")
+    board = firmware(variant="joshnewans", load=tail.torque, load_inertia=tail.inertia)
+    if tuning is not None:
+        assert ask(board, f"k {tuning}") == "OK"
+    command = "f 4055:500:500:1920"
+    assert ask(board, command) == "OK"
+    times, angles = [], []
+    for ms in range(1, round(run_s * 1000)):
+        now = ms * 1e-3
+        if ms % 1000 == 0:
+            assert ask(board, command, now) == "OK"  # against the auto-stop
+        board.advance(now)
+        times.append(now)
+        angles.append(board.motors[0].encoder_counts() * 2.0 * math.pi / 1920)
+    return board, times, angles
+
+
+def test_with_k_the_emulated_controller_removes_the_lag_in_water():
+    """Version 1's loop runs about 1 rad late at 1 Hz in water; k brings the lag near 0.
+
+    k's lead and feed-forward are the 37D's in water, from its model (docs/firmware.md: +158 ms
+    and +2 ms on the firmware in simavr), keeping the depth and the mean; the PWM in range.
+    """
+    from fishtail_plant.motor.board_units import Scale
+    from fishtail_plant.motor.profile_tuning import profile_tuning
+    from fishtail_testkit.modulation_fit import measure_following, speeds_from_angles
+
+    profile = CarrierSpeedProfile(2.0 * math.pi, 0.5, 2.0 * math.pi * 500 / 1920)
+    results = {}
+    for name, tuning in (("law", None), ("k", profile_tuning("water_swimming", Scale(64, 30.0)))):
+        board, times, angles = run_in_water(tuning)
+        kept = [i for i, t in enumerate(times) if t >= 2.0]
+        times, angles = [times[i] for i in kept], [angles[i] for i in kept]
+        results[name] = measure_following(times, angles, speeds_from_angles(times, angles), profile)
+        assert all(abs(pwm) <= 255 for _, _, frame in board.frames for pwm in frame)
+    law, tuned = results["law"], results["k"]
+    assert 0.7 <= law.phase_lag_rad <= 1.3, law  # measured 0.98
+    assert abs(tuned.phase_lag_rad) <= 0.25, tuned  # measured -0.00
+    assert tuned.depth_ratio >= 0.8 and abs(tuned.mean_speed_rad_s / (2 * math.pi) - 1) < 0.05
