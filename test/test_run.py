@@ -207,6 +207,36 @@ def test_firmware_stock_picks_the_stock_firmware(tmp_path, monkeypatch):
     )
 
 
+def test_firmware_in_water_gives_the_driver_k_for_its_motor_and_load():
+    """On the project's firmware in water the driver gets k for the board's motor and the load.
+
+    The board's motor is the 37D 30:1; no k on stock, unloaded or in air.
+    """
+    from pathlib import Path
+
+    import yaml
+
+    from fishtail_bringup import firmware_board
+    from fishtail_common.parameter_files import default_parameter_file
+    from fishtail_driver.protocol import parse_profile_tuning
+    from fishtail_plant.motor.board_units import Scale
+    from fishtail_plant.motor.profile_tuning import profile_tuning
+
+    config, fish = default_parameter_file("oscillatory"), default_parameter_file("fish")
+    tuning = firmware_board.board_tuning("fishtail", "water_swimming", config, fish)
+    assert tuning == profile_tuning("water_swimming", Scale(64, 30.0)) == "8:5955:1889:5:690"
+    assert parse_profile_tuning(tuning) is not None  # within the firmware's ranges
+    held = firmware_board.board_tuning("fishtail", "water_held", config, fish)
+    assert held is not None and held != tuning
+    for firmware, load in (("stock", "water_swimming"), ("fishtail", "none"), ("fishtail", "air")):
+        assert firmware_board.board_tuning(firmware, load, config, fish) is None
+    items = firmware_board.driver_parameters(Path("/tmp/link"), tuning)
+    (item,) = [item for item in items if item.startswith("serial_profile_tuning:=")]
+    assert yaml.safe_load(item.partition(":=")[2]) == tuning  # a string, whatever its digits
+    assert not any("tuning" in item for item in firmware_board.driver_parameters(Path("/l")))
+    assert f"k {tuning}" in firmware_board.describe("fishtail", tuning)
+
+
 #: A waypoint line of the console: which, how, where, and the time into the route.
 WAYPOINT = re.compile(
     r"waypoint \((?P<x>[-\d.]+), (?P<y>[-\d.]+)\) (?P<how>reached|rounded) at "

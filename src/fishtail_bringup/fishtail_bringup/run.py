@@ -230,6 +230,15 @@ def main(argv: list[str] | None = None) -> int:
         if path is not None and not path.is_file():
             print(f"fishtail-run: error: no parameter file {path}", file=sys.stderr)
             return 2
+    try:
+        tuning = None
+        if arguments.firmware:
+            tuning = firmware_board.board_tuning(
+                arguments.firmware, arguments.load, config, fish_config
+            )
+    except ValueError as error:
+        print(f"fishtail-run: error: --firmware: {error}", file=sys.stderr)
+        return 2
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
@@ -252,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
             link, arguments.load, config, fish_config, arguments.firmware
         )
         boards[firmware_board.BOARD_LABEL] = command
-        motor_params = firmware_board.driver_parameters(link)
+        motor_params = firmware_board.driver_parameters(link, tuning)
     # The driver's own parameters after --motor's, so that --driver-param overrides them.
     driver_params = motor_params + pivot_params + arguments.driver_param
     supervisor = Supervisor(
@@ -281,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
         + ("in one process, " if arguments.one_process else "")
         + (f"{arguments.motor} motor, " if arguments.motor else "")
         + (
-            f"on the firmware in simavr ({firmware_board.describe(arguments.firmware)}), "
+            f"on the firmware in simavr ({firmware_board.describe(arguments.firmware, tuning)}), "
             if arguments.firmware
             else ""
         )
