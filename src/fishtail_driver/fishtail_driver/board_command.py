@@ -99,7 +99,9 @@ class CommandState:
     # --- the I/O thread's side -------------------------------------------------------------
 
     def set_mode(self, mode: BoardMode) -> None:
-        """Who follows profiles on the board just connected."""
+        """Who follows profiles on the board just connected (or reset: ``k`` again)."""
+        if mode.tuning_acknowledged:
+            self._counters.count("profile_tunings")
         with self._lock:
             self._mode = mode
 

@@ -44,6 +44,7 @@ ON_BOARD = "profile on board"
 ON_HOST = "profile on host"
 #: ``profile_tuning`` in /diagnostics when ``serial_profile_tuning`` is empty.
 TUNING_NOT_SET = "not set (the board's default loop)"
+ACKNOWLEDGED = "(acknowledged)"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -93,6 +94,11 @@ class BoardMode:
     revolution: int | None = None
     #: What became of ``serial_profile_tuning`` on this board (:func:`tune_board`).
     tuning: str = TUNING_NOT_SET
+
+    @property
+    def tuning_acknowledged(self) -> bool:
+        """Whether the board acknowledged ``k`` (:func:`tune_board`)."""
+        return self.tuning.endswith(ACKNOWLEDGED)
 
     @property
     def on_board(self) -> bool:
@@ -194,7 +200,7 @@ def tune_board(mode: BoardMode, tuning: ProfileTuning | None, exchange: Exchange
     reply = exchange(tuning.encode(), _tuning_reply)
     answer = getattr(reply, "value", None)
     if answer == "OK":
-        return dataclasses.replace(mode, tuning=f"{command} (acknowledged)")
+        return dataclasses.replace(mode, tuning=f"{command} {ACKNOWLEDGED}")
     if answer is not None:
         state = f"refused by the board: {command} answered {answer!r}; its default loop"
     else:
