@@ -67,3 +67,19 @@ def test_the_pivot_actuator_is_simulated_beside_the_simulated_motor_only():
         SPECS["pivot_actuator"].check("serial")
     with pytest.raises(ParameterValueError, match=r"pivot_speed_m_s = 0.0 is outside"):
         SPECS["pivot_speed_m_s"].check(0.0)
+
+
+def test_a_malformed_profile_tuning_is_refused_at_start_up_with_any_backend():
+    from fishtail_driver.parameters import make_backend
+
+    assert SPECS["serial_profile_tuning"].default == ""
+    for backend in ("sim", "serial"):
+        with pytest.raises(ValueError) as error:
+            make_backend(defaults(backend=backend, serial_profile_tuning="8:5955:1889"))
+        message = str(error.value)
+        assert message.startswith("serial_profile_tuning: '8:5955:1889' is not LEAD:KV:KA:KS")
+        assert "\n" not in message
+    with pytest.raises(ValueError, match=r"serial_profile_tuning: KS = 256 is outside \[0, 255\]"):
+        make_backend(defaults(backend="sim", serial_profile_tuning="8:5955:1889:256"))
+    backend = make_backend(defaults(backend="serial", serial_profile_tuning="8:5955:1889:5:690"))
+    assert backend.config.profile_tuning.argument == "8:5955:1889:5:690"  # type: ignore[attr-defined]
