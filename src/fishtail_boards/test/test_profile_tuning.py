@@ -6,6 +6,7 @@ a board reset, where the board follows the profile; on the stock firmware it sen
 so. With ``k`` (the 37D's feed-forward, here unloaded) the modulation's phase lag through the
 driver is smaller than with the firmware's default loop. Times are the board's own
 (``BoardUnderTest.clock_at``), so that nothing depends on the pace the host kept a simulator at.
+And the fake board's emulation of ``k``'s controller is the firmware's, frame for frame.
 """
 
 from __future__ import annotations
@@ -150,3 +151,68 @@ def test_with_k_the_lag_through_the_driver_is_smaller(either_board, serial_backe
     print(f"{first.kind}: lag {default:.3f} rad with the default loop, {tuned:.3f} with k")
     assert tuned < default - 0.15, lags
     assert abs(tuned) < 0.4, lags
+
+
+#: ``CarrierProfile``'s ff[0] and integral[0] (fishtail_profile.h; avr-gcc packs the struct: 4 x
+#: long, carry[2], on, 5 x int, 4 x long, tuned, then ff[2] and integral[2]: 68 bytes).
+PROFILE_FF, PROFILE_INTEGRAL, PROFILE_SIZE = 52, 60, 68
+
+
+def signed(value: int) -> int:
+    """A watched 4-byte value as a signed long."""
+    return value - (1 << 32) if value >= 1 << 31 else value
+
+
+def test_the_emulated_controller_is_the_firmware_s_frame_for_frame(fishtail_build, tmp_path):
+    """With k, in water, at 30 Hz: the emulation's controller is the firmware's, frame for frame.
+
+    From the counts the firmware read, the emulation's target, feed-forward, integral and PWM
+    are the firmware's at every frame (its variables read per simulated millisecond).
+    """
+    import struct
+
+    from fishtail_boards.avr_board import (
+        SET_POINT_ENCODER,
+        SET_POINT_OUTPUT,
+        SET_POINT_PREV_ENC,
+        firmware_variables,
+    )
+    from fishtail_boards.board_profile_law import CarrierProfileLaw
+    from fishtail_plant.motor.speed_loop import FirmwareSpeedLoop
+    from fishtail_testkit.board_profile import SCALE, profile_command, run_on_board
+
+    variables = firmware_variables(fishtail_build)
+    assert variables["profile"][1] == PROFILE_SIZE, variables["profile"]
+    left, profile_at = variables["leftPID"][0], variables["profile"][0]
+    set_point = [left + offset for offset in (0, SET_POINT_ENCODER, SET_POINT_PREV_ENC,
+                                              SET_POINT_OUTPUT)]  # fmt: skip
+    watch = [variables["nextPID"][0], *set_point, profile_at + PROFILE_FF,
+             profile_at + PROFILE_INTEGRAL]  # fmt: skip
+    tuning = profile_tuning("water_swimming", SCALE)
+    run = run_on_board(fishtail_build, tmp_path, PROFILE, 30, 4.0, tuning=tuning, watch=watch)
+    frames = []
+    for before, after in zip(run.records, run.records[1:], strict=False):
+        if after[1][0] != before[1][0] and after[0] < run.ended_us:
+            frames.append((before[1], after[1]))
+    first = next(i for i, (_, after) in enumerate(frames) if signed(after[5]) != 0)
+    law = CarrierProfileLaw()
+    assert law.set_profile(profile_command(PROFILE, SCALE, 30)[2:].encode("ascii"))
+    assert law.set_tuning(tuning.encode("ascii"), 33)
+    loop = FirmwareSpeedLoop((0,))
+    loop.moving = True
+    loop.set_points[0].prev_enc = signed(frames[first][0][3])  # PrevEnc before the profile
+    compared = 0
+    for _, after in frames[first:]:
+        count = signed(after[2])
+        point = loop.set_points[0]
+        point.target_ticks_per_frame = law.target(0, count, count - point.prev_enc)
+        (pwm,) = law.control(loop, (count,))
+        target = struct.unpack("<f", after[1].to_bytes(4, "little"))[0]
+        firmware = (target, signed(after[5]), signed(after[6]), signed(after[4]))
+        emulated = (float(point.target_ticks_per_frame), law.ff[0], law.integral[0], pwm)
+        assert emulated == firmware, (compared, count, emulated, firmware)
+        compared += 1
+    assert compared >= 3.5 * 30, compared
+    # The loop did work: the PWM moved over a wide range, the integral was used.
+    outputs = [signed(after[4]) for _, after in frames[first:]]
+    assert max(outputs) - min(outputs) > 50 and any(signed(a[6]) != 0 for _, a in frames[first:])
