@@ -187,7 +187,8 @@ def tune_board(mode: BoardMode, tuning: ProfileTuning | None, exchange: Exchange
 
     Sent only on the project's firmware with the profile on the board (elsewhere ``k`` would
     mean nothing, or is unknown). A board that answers ``ERR`` or ``Invalid Command`` (the first
-    version of the firmware) keeps its default loop; so does one that did not answer.
+    version of the firmware) keeps its default loop; one that did not answer may have taken it
+    or not (said so; sent again at the next connect or board reset).
     """
     if tuning is None:
         return dataclasses.replace(mode, tuning=TUNING_NOT_SET)
@@ -205,5 +206,5 @@ def tune_board(mode: BoardMode, tuning: ProfileTuning | None, exchange: Exchange
         state = f"refused by the board: {command} answered {answer!r}; its default loop"
     else:
         failure = f"{getattr(reply, 'kind', '?')}: {getattr(reply, 'reason', '?')}"
-        state = f"not acknowledged: {command} ({failure}); the board's default loop"
+        state = f"not acknowledged: {command} ({failure}); either loop may run"
     return dataclasses.replace(mode, tuning=state)
