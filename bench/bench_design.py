@@ -7,7 +7,7 @@ calls on the same samples), a sweep on two Dask workers >= 1.7x one core. Then t
 run of config/design/report-fish.yaml (the search, the verified front, the files). The problems
 are config/design/report-fish.yaml and, for mechanism 2, report-fish-undulatory.yaml, 128 samples
 a beat. Run with `make bench`; ``--quick``: fewer designs in the sweeps and no full run;
-``--search-tier``: the search tier's lines only; ``--sweeps``: those and the sweeps' only.
+``--search-tier``: the search tier's lines only; ``--sweeps``: the sweeps' lines only.
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import psutil
 
 from fishtail_design.dask_executor import DaskExecutor
 from fishtail_design.evaluation import evaluate_rows
@@ -34,7 +35,7 @@ from fishtail_design.variables import CARRIER_SPEED, GEAR_RATIO, GEARBOX_EFFICIE
 from fishtail_kinematics.engine.blocks import BLOCK_SAMPLES, block_slices
 from fishtail_plant.fish import cycle_kernel
 from fishtail_plant.motor.duty import MotorConstants
-from measure import ROOT, best_of, pin_to_one_core, verdict
+from measure import ROOT, TICKS_PER_S, best_of, pin_to_one_core, verdict
 
 PROBLEM = ROOT / "config" / "design" / "report-fish.yaml"
 UNDULATORY_PROBLEM = ROOT / "config" / "design" / "report-fish-undulatory.yaml"
@@ -174,6 +175,7 @@ def sweep_seconds(
     batch_size: int = SWEEP_BATCH,
     parts: bool = False,
     chunk_size: int = SWEEP_CHUNK,
+    points: np.ndarray | None = None,
 ) -> tuple[float, SweepResult]:
     """Wall seconds of a sweep of ``count`` Latin-hypercube designs to Parquet.
 
@@ -181,14 +183,55 @@ def sweep_seconds(
     kernel the default task of 64 designs takes a few milliseconds, less than a Dask task's own
     overhead, and two tasks a chunk keep two workers busy. Parquet: writing CSV costs as much
     as scoring. ``parts``: a folder of part files, each chunk a task that writes its own.
-    Returns the seconds and what the sweep said.
+    Returns the seconds and what the sweep said. ``points``: the designs, if already made.
     """
-    points = designs(problem, count, seed=2)
+    points = designs(problem, count, seed=2) if points is None else points
     started = time.perf_counter()
     path = folder / ("parts.parquet" if parts else "sweep.parquet")
     result = sweep(problem, points, path, executor,  # type: ignore[arg-type]
                    chunk_size=chunk_size, batch_size=batch_size, parts=parts)  # fmt: skip
     return time.perf_counter() - started, result
+
+
+def machine_ticks() -> tuple[int, int, int]:
+    """The machine's busy, idle and stolen CPU ticks since boot (/proc/stat's first line)."""
+    fields = [int(value) for value in Path("/proc/stat").read_text().split("\n")[0].split()[1:]]
+    idle = fields[3] + fields[4]  # idle, iowait
+    steal = fields[7] if len(fields) > 7 else 0
+    return sum(fields[:8]) - idle - steal, idle, steal
+
+
+def process_cpu(processes: list[psutil.Process]) -> float:
+    """CPU seconds (user + system) of ``processes`` so far (those that have ended: none)."""
+    total = 0.0
+    for process in processes:
+        try:
+            times = process.cpu_times()
+        except psutil.Error:
+            continue
+        total += times.user + times.system
+    return total
+
+
+def cpu_split(run: Callable[[], object], workers: list[psutil.Process]) -> str:
+    """Where the machine's CPU went while ``run`` ran: the workers, this process, the rest."""
+    this = psutil.Process()
+    before = (machine_ticks(), process_cpu(workers), process_cpu([this]), time.perf_counter())
+    run()
+    after = (machine_ticks(), process_cpu(workers), process_cpu([this]), time.perf_counter())
+    wall = after[3] - before[3]
+    busy, idle, steal = (
+        (later - earlier) / TICKS_PER_S
+        for later, earlier in zip(after[0], before[0], strict=True)
+    )
+    worker_s, client_s = after[1] - before[1], after[2] - before[2]
+    cores = len(os.sched_getaffinity(0))
+    return (
+        f"{cores} cores x {wall:.1f} s = {cores * wall:.1f} core-s: the workers "
+        f"{worker_s:.1f} (with their nannies), this process (client, scheduler) {client_s:.1f}, "
+        f"other processes {busy - worker_s - client_s:.1f}, idle {idle:.1f}, stolen by the "
+        f"hypervisor {steal:.1f}"
+    )
 
 
 def load() -> str:
@@ -226,9 +269,20 @@ def sweeps(problem: Problem, count: int, all_cores: set[int]) -> None:
             # the compiled code before the timed one.
             sweep_seconds(problem, 512, executor, Path(folder), batch_size=64)
             sweep_seconds(problem, 512, executor, Path(folder), parts=True, chunk_size=64)
-            two_s, result = sweep_seconds(problem, count, executor, Path(folder), parts=True)
+            workers = [child for child in psutil.Process().children(recursive=True)
+                       if "resource_tracker" not in " ".join(child.cmdline())]  # fmt: skip
+            timed: list[tuple[float, SweepResult]] = []
+            points = designs(problem, count, seed=2)
+
+            def parts_run() -> None:
+                timed.append(sweep_seconds(problem, count, executor, Path(folder), parts=True,
+                                           points=points))  # fmt: skip
+
+            split = cpu_split(parts_run, workers)
+            two_s, result = timed[0]
             print(f"  two Dask workers ({cores} cores allowed), parts written by the workers: "
                   f"{two_s:.1f} s ({count / two_s:,.0f}/s), {load()}")  # fmt: skip
+            print(f"    CPU: {split}")
             busy = result.scoring_s + result.writing_s
             print(f"    per chunk of {SWEEP_CHUNK} (mean of {chunks}, in the task): scoring "
                   f"{result.scoring_s / chunks:.3f} s, sweep_table + Parquet part "
@@ -287,6 +341,9 @@ def main() -> None:
         f"{'yes' if cycle_kernel.kernel_signature() else 'no (numba missing)'}; "
         f"{os.environ.get('OPENBLAS_NUM_THREADS', 'default')} OpenBLAS threads"
     )
+    if "--sweeps" in sys.argv[1:]:
+        sweeps(problem, QUICK_SWEEP_DESIGNS if quick else SWEEP_DESIGNS, all_cores)
+        return
     compiled_rate = search_tier_rate(problem, rows)
     numpy_rate = numpy_tier_rate(POPULATION)
     print(
@@ -305,9 +362,6 @@ def main() -> None:
         f"{verdict(compiled_rate >= TARGET_UNDULATORY_DESIGNS_S)})"
     )
     if "--search-tier" in sys.argv[1:]:
-        return
-    if "--sweeps" in sys.argv[1:]:
-        sweeps(problem, QUICK_SWEEP_DESIGNS if quick else SWEEP_DESIGNS, all_cores)
         return
     fast, slow, difference = performance_rates(problem, rows)
     print(
