@@ -137,11 +137,12 @@ def test_the_serial_path_holds_the_speed_and_sees_the_tails_ripple(
     ripple = {}
     for name, found in samples.items():
         turns = revolutions(s for s in found if s.monotonic_s > found[0].monotonic_s + SETTLE_S)
-        for turn in turns:  # each revolution at the held speed on average
-            mean = (turn[-1].angle_rad - turn[0].angle_rad) / (
-                turn[-1].monotonic_s - turn[0].monotonic_s
-            )
-            assert abs(mean / HELD_RAD_S - 1.0) < 0.04, f"{name}: mean {mean:.3f} rad/s"
+        # The held speed on average over the revolutions: one revolution's ends are two host
+        # stamps, and a poll late on a loaded machine moves one of them by a few per cent.
+        mean = (turns[-1][-1].angle_rad - turns[0][0].angle_rad) / (
+            turns[-1][-1].monotonic_s - turns[0][0].monotonic_s
+        )
+        assert abs(mean / HELD_RAD_S - 1.0) < 0.04, f"{name}: mean {mean:.3f} rad/s"
         ripple[name] = statistics.median(spread([s.velocity_rad_s for s in t]) for t in turns)
     summary = f"ripple {ripple['loaded']:.3f} rad/s loaded, {ripple['unloaded']:.3f} unloaded"
     assert ripple["loaded"] > 0.5, summary
