@@ -185,8 +185,13 @@ class DaskExecutor(_Closing):
             try:
                 import dask as dask_core
 
-                spawn = {"distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT}
-                with dask_core.config.set(spawn):
+                # No dashboard, so no use for the workers' statistical profiler (which samples
+                # the task's stack 100 times a second: some 2 % of a worker's core).
+                settings = {
+                    "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT,
+                    "distributed.worker.profile.enabled": False,
+                }
+                with dask_core.config.set(settings):
                     self._cluster = dask.LocalCluster(
                         n_workers=workers,
                         threads_per_worker=1,
