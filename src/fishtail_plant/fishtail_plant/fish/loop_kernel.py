@@ -1,7 +1,7 @@
 """Mechanism-2 linkages over one beat, compiled: the second loop's branch and the towed tail.
 
-The engine builds one mechanism-2 tail at a time (a continuation sweep of 2001 poses and a
-polynomial seed, some 9 ms). A synthesis asks the same of thousands of designs, so here numba
+The engine builds one mechanism-2 tail at a time (a continuation sweep of 2001 poses that
+seeds its solve, some 9 ms). A synthesis asks the same of thousands of designs, so here numba
 compiles, into loops over the designs, the engine's own scalar formulas: the drive's pose
 (:func:`~fishtail_kinematics.engine.oscillatory_tail.drive_pose`) and the second loop's Newton
 closure, rates and tip (:mod:`~fishtail_kinematics.engine.loop_pose`), to the engine's
