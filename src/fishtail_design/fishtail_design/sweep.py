@@ -14,7 +14,9 @@ constraints' margins, ``feasible`` and the search tier's figures, named as in ``
 With ``parts=True`` (:func:`sweep`) the output is instead a folder of Parquet files, one per
 chunk (:func:`part_name`), each scored and written by the worker that runs the chunk: the client
 only hands out designs and gathers a count per chunk, so that it does not become the bottleneck of
-a cluster; read back as one dataset, the folder holds the same table as the single file.
+a cluster; read back as one dataset, the folder holds the same table as the single file. Once
+every part is written the folder gets :data:`COMPLETE_NAME` (which dataset readers skip): a folder
+without it is a sweep that stopped part-way, whose missing chunks a reader would not notice.
 Usage: docs/design.md ("Sweeps").
 
 >>> from fishtail_design.variables import DesignSpace
@@ -31,6 +33,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import functools
+import json
 import math
 import os
 import time
@@ -249,7 +252,8 @@ def sweep(
             runs: on a cluster the folder must be on a filesystem that every worker shares.
             ``batch_size`` does not apply (a chunk is a task). The client holds at most
             2 x :data:`PARTS_PER_MAP` chunks of designs. A sweep that stops part-way leaves the
-            parts done, which need not be consecutive: part k holds chunk k's designs.
+            parts done, which need not be consecutive: part k holds chunk k's designs; only a
+            whole sweep writes :data:`COMPLETE_NAME` last.
 
     Raises:
         DesignError: an output file of another suffix, parts of a CSV file, or a parts folder
@@ -281,6 +285,11 @@ def sweep(
         finally:
             scored.close()
     return SweepResult(written, feasible)
+
+
+#: The file a parts sweep writes last, once every part is in the folder: ``{"parts": chunks,
+#: "designs": rows, "feasible": rows}``. The leading underscore makes Parquet readers skip it.
+COMPLETE_NAME = "_complete.json"
 
 
 def part_name(index: int) -> str:
@@ -334,8 +343,9 @@ def _parts_folder(path: Path) -> None:
     if path.exists() and not path.is_dir():
         raise DesignError(f"{path}: a parts sweep writes a folder, and this is a file")
     path.mkdir(parents=True, exist_ok=True)
-    for stale in (*path.glob("part-*.parquet"), *path.glob(".part-*.parquet.*")):
-        stale.unlink()
+    stale_files = (*path.glob("part-*.parquet"), *path.glob(".part-*.parquet.*"))
+    for stale in (path / COMPLETE_NAME, *stale_files):
+        stale.unlink(missing_ok=True)
 
 
 def _sweep_parts(
@@ -350,14 +360,17 @@ def _sweep_parts(
     """:func:`sweep` with ``parts``: a task per chunk, writing its part; counts gathered."""
     _parts_folder(folder)
     task = functools.partial(write_part, problem, str(folder.resolve()), function)
-    written = feasible = 0
+    written = feasible = parts = 0
     spent = np.zeros(3)
     for summary in _mapped_in_groups(executor, task, _tagged(chunks(points, chunk_size))):
         written += int(summary[0, 1])
         feasible += int(summary[0, 2])
+        parts += 1
         spent += summary[0, 3:6]
         if progress is not None:
             progress(written)
+    complete = {"parts": parts, "designs": written, "feasible": feasible}
+    (folder / COMPLETE_NAME).write_text(json.dumps(complete) + "\n", encoding="utf-8")
     return SweepResult(written, feasible, *(float(value) for value in spent))
 
 

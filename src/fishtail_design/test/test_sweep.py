@@ -1,6 +1,7 @@
 import csv
 import functools
 import itertools
+import json
 import math
 import random
 import re
@@ -13,11 +14,12 @@ import pyarrow.parquet as pq
 import pytest
 
 from fishtail_common.parameter_files import default_parameter_file
-from fishtail_design.errors import DesignError
+from fishtail_design.errors import DesignError, ExecutorError
 from fishtail_design.evaluation import FIGURES, Scores, constraint_list, evaluate_rows
 from fishtail_design.executors import InProcessExecutor, LocalProcessExecutor
 from fishtail_design.problem import Problem, read_problem
 from fishtail_design.sweep import (
+    COMPLETE_NAME,
     Grid,
     chunks,
     grid,
@@ -342,7 +344,11 @@ def test_parts_read_back_as_the_single_file(problem: Problem, tmp_path: Path) ->
         done: list[int] = []
         result = sweep(problem, points, folder, executor, 4, 3, done.append, parts=True)
     names = sorted(path.name for path in folder.iterdir())
-    assert names == [f"part-{index:06d}.parquet" for index in range(12)]  # the stale one gone
+    # The stale part gone; the completion record last, with the counts.
+    assert names == [COMPLETE_NAME, *(f"part-{index:06d}.parquet" for index in range(12))]
+    assert json.loads((folder / COMPLETE_NAME).read_text()) == {
+        "parts": 12, "designs": 45, "feasible": result.feasible
+    }
     header, values = _read_parts(folder)
     assert (header, values.tobytes()) == (
         _read_parquet(tmp_path / "one.parquet")[0],
@@ -358,6 +364,30 @@ def test_parts_read_back_as_the_single_file(problem: Problem, tmp_path: Path) ->
     (tmp_path / "file.parquet").write_bytes(b"")
     with pytest.raises(DesignError, match="writes a folder, and this is a file"):
         sweep(problem, points, tmp_path / "file.parquet", InProcessExecutor(), parts=True)
+
+
+def test_a_parts_sweep_that_stops_part_way_leaves_no_completion_record(
+    problem: Problem, tmp_path: Path
+) -> None:
+    points = latin_hypercube(problem.space, 20, seed=3)
+    folder = tmp_path / "parts.parquet"
+    with InProcessExecutor() as executor:
+        sweep(problem, points, folder, executor, 4, parts=True)
+        assert (folder / COMPLETE_NAME).exists()
+        calls: list[int] = []
+
+        def fails_on_the_third_chunk(rows: FloatArray) -> Scores:
+            calls.append(rows.shape[0])
+            if len(calls) == 3:
+                raise RuntimeError("a worker died")
+            return evaluate_rows(problem, rows)
+
+        with pytest.raises((RuntimeError, ExecutorError)):
+            sweep(problem, points, folder, executor, 4, function=fails_on_the_third_chunk,
+                  parts=True)  # fmt: skip
+    # The earlier sweep's record is gone with its parts: a reader can tell the folder is short.
+    assert not (folder / COMPLETE_NAME).exists()
+    assert len(list(folder.glob("part-*.parquet"))) == 2
 
 
 def test_the_command_writes_parts_and_says_so(
@@ -398,7 +428,8 @@ def test_parts_written_by_dask_workers_and_a_pool_are_the_in_process_parts(
         header, values = _read_parts(folder)
         assert header == expected[0]
         _assert_same_designs(values, expected[1])
-        files = sorted(folder.iterdir())
+        files = sorted(folder.glob("part-*"))
         assert [path.name for path in files] == [f"part-{i:06d}.parquet" for i in range(15)]
+        assert json.loads((folder / COMPLETE_NAME).read_text())["parts"] == 15
         for path in files:  # the same bytes, whoever wrote them
             assert path.read_bytes() == (tmp_path / "in-process.parquet" / path.name).read_bytes()
