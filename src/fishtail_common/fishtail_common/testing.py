@@ -39,6 +39,8 @@ LOCK_DIR = Path(tempfile.gettempdir()) / "fishtail-ros-domains"
 
 #: Discovery takes 0.3-2.5 s on this kind of machine; waits for it get a wide margin.
 DISCOVERY_TIMEOUT_S = 15.0
+#: How long a service call waits for its response before it sends the request again [s].
+RESPONSE_RETRY_S = 5.0
 #: How often a wait evaluates its predicate.
 PREDICATE_PERIOD_S = 0.02
 #: Queue depth of the probe's sensor-data subscriptions: deep enough that a busy test process does
@@ -375,13 +377,31 @@ class Probe:
     def call(
         self, srv_type: Any, service: str, request: Any, timeout: float = DISCOVERY_TIMEOUT_S
     ) -> Any:
-        """Call a service once it is available; its response."""
+        """Call a service once it is available; its response.
+
+        A request that gets no response within :data:`RESPONSE_RETRY_S` is sent again, until
+        ``timeout``: the server can take a request before it has matched the client's response
+        reader, and then gives the response up ("failed to send response (timeout)") and the
+        client waits for ever. So the service must take a repeated request as one (as
+        ``set_parameters`` and ``get_parameters`` do).
+        """
         client = self.node.create_client(srv_type, service)
         try:
             self.spin_until(client.service_is_ready, timeout, f"service {service}")
-            future = client.call_async(request)
-            self.spin_until(future.done, timeout, f"the response of {service}")
-            return future.result()
+            deadline = time.monotonic() + timeout
+            while True:
+                future = client.call_async(request)
+                wait_s = min(RESPONSE_RETRY_S, max(deadline - time.monotonic(), 0.0))
+                try:
+                    self.spin_until(future.done, wait_s, f"the response of {service}")
+                    return future.result()
+                except TimeoutError:
+                    client.remove_pending_request(future)
+                    if time.monotonic() >= deadline:
+                        raise TimeoutError(
+                            f"timed out after {timeout:g} s waiting for the response of "
+                            f"{service}"
+                        ) from None
         finally:
             self.node.destroy_client(client)
 
