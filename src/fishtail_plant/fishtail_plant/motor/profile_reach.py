@@ -25,6 +25,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from fishtail_kinematics.engine.carrier_profile import MAX_DEPTH
 from fishtail_plant.motor.dc_motor import (
     DcMotorParameters,
     LoadInertia,
@@ -36,8 +37,6 @@ from fishtail_plant.motor.dc_motor import (
 FloatArray = npt.NDArray[np.float64]
 #: Angles a revolution is evaluated at.
 SAMPLES = 360
-#: CarrierSpeedProfile's deepest modulation.
-MAX_DEPTH = 0.9
 
 
 def profile_duty(
