@@ -365,6 +365,10 @@ def either_board(request, fake_board, tmp_path) -> Callable[..., BoardUnderTest]
         board.stop()
 
 
+class NoReplyError(AssertionError):
+    """The board did not answer a command in time (a failed assertion where a test expects one)."""
+
+
 class RawPort:
     """The board's serial port in raw mode, one command and its reply line at a time."""
 
@@ -374,20 +378,32 @@ class RawPort:
         tty.setraw(self.fd)
 
     def ask(self, command: str, timeout_s: float = 5.0) -> str:
-        """Send ``command`` with its CR; the reply line without CR LF."""
+        """Send ``command`` with its CR; the reply line without CR LF.
+
+        Raises:
+            NoReplyError: no whole line within ``timeout_s`` (an AssertionError).
+        """
         os.write(self.fd, command.encode("ascii") + b"\r")
         reply, deadline = b"", time.monotonic() + timeout_s
         while not reply.endswith(b"\r\n"):
             left = deadline - time.monotonic()
-            assert left > 0, f"no reply to {command!r} (got {reply!r})"
+            if left <= 0:
+                raise NoReplyError(f"no reply to {command!r} (got {reply!r})")
             if select.select([self.fd], [], [], left)[0]:
                 reply += os.read(self.fd, 256)
         return reply.decode("ascii").strip()
 
-    def counts(self) -> tuple[int, int]:
+    def counts(self, timeout_s: float = 5.0) -> tuple[int, int]:
         """The encoder counts (``e``)."""
-        left, right = self.ask("e").split()
+        left, right = self.ask("e", timeout_s).split()
         return int(left), int(right)
+
+    def drain(self) -> bytes:
+        """Whatever the board has sent and nobody read (a reply cut short by a reset)."""
+        pending = b""
+        while select.select([self.fd], [], [], 0.0)[0]:
+            pending += os.read(self.fd, 256)
+        return pending
 
     def close(self) -> None:
         """Close the port."""
