@@ -17,13 +17,13 @@ import math
 import threading
 
 from fishtail_driver.board_profile import NOT_CONNECTED, BoardMode, ProfileFields
+from fishtail_driver.profile_command import STOPPED
 from fishtail_driver.status_counters import StatusCounters
 from fishtail_kinematics.engine.carrier_profile import CarrierSpeedProfile
 from fishtail_plant.motor.board_units import Scale
 
 #: What the board is asked to run: ticks per frame (``m``; 0 stops) or a profile (``f``).
 BoardCommand = int | ProfileFields
-STOPPED = CarrierSpeedProfile(0.0)
 
 
 @dataclasses.dataclass(frozen=True)
