@@ -26,6 +26,16 @@ import math
 
 import numpy as np
 
+from fishtail_driver.protocol import (
+    PROFILE_DEPTH_MAX,
+    PROFILE_DEPTH_UNIT,
+    PROFILE_MEAN_MAX,
+    PROFILE_MEAN_SHIFT,
+    PROFILE_REVOLUTION_MAX,
+    TUNING_FRICTION_MAX,
+    TUNING_GAIN_MAX,
+    TUNING_LEAD_MAX_MS,
+)
 from fishtail_plant.motor.board_units import PWM_MAX, wrap_int16, wrap_int32
 from fishtail_plant.motor.speed_loop import FirmwareSpeedLoop, SetPoint, c_div
 
@@ -38,13 +48,16 @@ QUARTER_SINE = (
     14449, 14635, 14811, 14978, 15137, 15286, 15426, 15557, 15679, 15791, 15893,
     15986, 16069, 16143, 16207, 16261, 16305, 16340, 16364, 16379, 16384,
 )  # fmt: skip
-SPEED_SHIFT = 6
-DEPTH_UNIT = 1000
-MAX_DEPTH = 900
-MAX_MEAN = 32767
-MAX_REVOLUTION = 65535
-#: ``k``'s ranges: LEAD and KS 0..255, KV, KA and KQ 0..32767.
-TUNING_LIMITS = (255, 32767, 32767, 255, 32767)
+# The command's units and ranges: the driver's codec states them once.
+SPEED_SHIFT = PROFILE_MEAN_SHIFT
+DEPTH_UNIT = PROFILE_DEPTH_UNIT
+MAX_DEPTH = PROFILE_DEPTH_MAX
+MAX_MEAN = PROFILE_MEAN_MAX
+MAX_REVOLUTION = PROFILE_REVOLUTION_MAX
+#: ``k``'s ranges in its fields' order: LEAD, KV, KA, KS, KQ.
+TUNING_LIMITS = (
+    TUNING_LEAD_MAX_MS, TUNING_GAIN_MAX, TUNING_GAIN_MAX, TUNING_FRICTION_MAX, TUNING_GAIN_MAX
+)  # fmt: skip
 #: profileRetune's caps of the per-frame KA and KQ factors.
 FACTOR_CAP = 262143
 _U32 = 0xFFFFFFFF
